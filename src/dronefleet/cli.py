@@ -1,0 +1,67 @@
+"""The one console script: ``dronefleet <command>``.
+
+Each room registers its own subcommands from a ``cli`` module exposing ``register(subparsers)``;
+this file only gathers them, so adding a command never means editing someone else's code.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from dronefleet import __version__
+
+#: Modules that contribute subcommands. A missing one (a room not built yet) is skipped.
+COMMAND_MODULES = (
+    "dronefleet.drone.cli",
+    "dronefleet.sim.cli",
+    "dronefleet.ground.cli",
+    "dronefleet.experiments.cli",
+    "dronefleet.demo",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="dronefleet", description="Plan, run and watch missions flown by one drone or many."
+    )
+    parser.add_argument("--version", action="version", version=f"dronefleet {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name and name.startswith(exc.name):
+                continue
+            raise
+        module.register(sub)
+    return parser
+
+
+def setup_logging(verbosity: int) -> None:
+    level = logging.WARNING - 10 * verbosity
+    logging.basicConfig(
+        level=max(level, logging.DEBUG),
+        format="%(asctime)s %(levelname)-7s %(name)s: %(message)s",
+        datefmt="%H:%M:%S",
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging(args.verbose)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

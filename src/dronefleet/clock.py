@@ -1,0 +1,53 @@
+"""One clock for all waiting (DESIGN.md §4).
+
+Drone-side code takes its time from the vehicle it flies: a simulated vehicle's sim clock, or an
+autopilot's boot time. Ground code uses wall time. Both implement :class:`Clock`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Protocol, runtime_checkable
+
+
+@runtime_checkable
+class Clock(Protocol):
+    """A source of time in seconds and a way to wait on it."""
+
+    def now(self) -> float:
+        """Current time in seconds (vehicle seconds for a vehicle clock)."""
+        ...
+
+    async def sleep(self, duration_s: float) -> None:
+        """Wait ``duration_s`` seconds of this clock's time."""
+        ...
+
+    @property
+    def speedup(self) -> float:
+        """How many of this clock's seconds pass per wall second (1 for real time)."""
+        ...
+
+
+class WallClock:
+    """Real time: monotonic seconds, asyncio sleeps."""
+
+    speedup = 1.0
+
+    def now(self) -> float:
+        return time.monotonic()
+
+    async def sleep(self, duration_s: float) -> None:
+        await asyncio.sleep(max(0.0, duration_s))
+
+
+async def wait_until(
+    clock: Clock, predicate, *, poll_s: float = 0.1, timeout_s: float | None = None
+):
+    """Poll ``predicate`` on ``clock`` until it is true; return False on timeout (clock seconds)."""
+    deadline = None if timeout_s is None else clock.now() + timeout_s
+    while not predicate():
+        if deadline is not None and clock.now() >= deadline:
+            return False
+        await clock.sleep(poll_s)
+    return True

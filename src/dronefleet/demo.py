@@ -1,0 +1,184 @@
+"""``dronefleet demo``: the whole platform on the embedded default, no system service needed.
+
+An in-process MQTT broker, the ground services (Drone Identifier, Drone Manager with the web UI,
+Telemetry Analyzer on SQLite, Mission Planner), and simulated drones placed apart near a home
+point. It prints the web UI's URL and the tokens, flies a short demo mission with the first drone
+(printing every step as it happens) and keeps serving until Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+from dronefleet.geo.types import NED
+
+DEMO_SQUARE = [NED(30, 0), NED(30, 30), NED(0, 30), NED(0, 0)]
+
+
+def parse_hostport(text: str) -> tuple[str, int]:
+    host, _, port = text.rpartition(":")
+    if not host or not port.isdigit():
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("demo", help="the platform on the embedded broker with simulated drones")
+    p.add_argument(
+        "--http", type=parse_hostport, default=("127.0.0.1", 8080), help="HOST:PORT (0: free)"
+    )
+    p.add_argument("--speedup", type=float, default=2.0, help="vehicle seconds per wall second")
+    p.add_argument("--drones", type=int, default=3, help="simulated drones to start")
+    p.add_argument("--state-dir", type=Path, default=Path("var/demo"), help="databases and logs")
+    p.add_argument("--tiles", help="map tile URL template; none: an offline grid is drawn")
+    p.add_argument("--token", help="use this operator token instead of a fresh one")
+    p.add_argument("--no-mission", action="store_true", help="do not fly the demo mission")
+    p.add_argument("--once", action="store_true", help="exit when the demo mission is done")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.drones < 0 or args.speedup <= 0:
+        print("dronefleet demo: --drones must be >= 0 and --speedup > 0", file=sys.stderr)
+        return 2
+    args.state_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        return asyncio.run(_demo(args))
+    except OSError as exc:
+        print(f"dronefleet demo: {exc}", file=sys.stderr)
+        return 1
+
+
+def demo_mission(home) -> list[dict[str, Any]]:
+    """Arm, take off, fly a 30 m square photographing each corner, hover, land."""
+    from dronefleet.geo.ned import ned_to_lla
+
+    steps: list[dict[str, Any]] = [
+        {"command": "arm"},
+        {"command": "takeoff", "value": 10},
+        {"command": "wait_for_flight"},
+    ]
+    for ned in DEMO_SQUARE:
+        corner = ned_to_lla(ned, home)
+        steps += [
+            {"command": "navigate", "lat": corner.lat, "lon": corner.lon, "altitude_delta": 10},
+            {"command": "wait_for_flight"},
+            {"command": "takepic"},
+        ]
+    return [
+        *steps,
+        {"command": "sleep", "value": 2},
+        {"command": "land"},
+        {"command": "wait_for_flight"},
+    ]
+
+
+def _stop_event() -> asyncio.Event:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError):
+            loop.add_signal_handler(sig, stop.set)
+    return stop
+
+
+async def _demo(args: argparse.Namespace) -> int:
+    from dronefleet.drone.cli import DEFAULT_HOME, parse_lla
+    from dronefleet.drone.config import DroneConfig
+    from dronefleet.drone.simulated import SimFleet, homes_around
+    from dronefleet.ground.manager.auth import Role, TokenBook
+    from dronefleet.ground.services import GroundServices
+    from dronefleet.messaging.embedded import EmbeddedBroker
+
+    stop = _stop_event()
+    home = parse_lla(DEFAULT_HOME)
+    state_dir: Path = args.state_dir
+    host, port = args.http
+    async with EmbeddedBroker() as broker:
+        ground = GroundServices(
+            broker.url,
+            store_url=f"sqlite:///{state_dir / 'telemetry.db'}",
+            state_path=state_dir / "ground.db",
+            http_host=host,
+            http_port=port,
+            token=args.token,
+        )
+        await ground.start()
+        try:
+            ground.app.state.web_tiles = args.tiles
+            tokens = TokenBook(ground.state)
+            operator = ground.operator_token or await tokens.issue("operator", Role.OPERATOR)
+            viewer = await tokens.issue("viewer", Role.VIEWER)
+            async with SimFleet(speedup=args.speedup) as fleet:
+                ids = [f"QUAD_{i + 1}" for i in range(args.drones)]
+                for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):
+                    config = DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs")
+                    await fleet.add_drone(config, broker.url, home=spot)
+                print(f"broker: {broker.url}")
+                print(f"web UI: {ground.http_url}/")
+                print(f"API docs: {ground.http_url}/docs")
+                print(f"operator token: {operator}")
+                print(f"viewer token: {viewer}")
+                print(
+                    f"{len(ids)} simulated drones ({', '.join(ids) or 'none'}); vehicle time runs "
+                    f"{args.speedup:g}x. Ctrl-C stops everything.",
+                    flush=True,
+                )
+                if ids and not args.no_mission:
+                    done = await _fly_demo_mission(broker.url, ids[0], fleet, stop)
+                    if args.once:
+                        return 0 if done else 1
+                await stop.wait()
+        finally:
+            await ground.stop()
+    return 0
+
+
+async def _fly_demo_mission(broker_url, drone_id: str, fleet, stop: asyncio.Event) -> bool:
+    """Send the square mission to ``drone_id`` and print each report until it ends."""
+    from dronefleet.messaging import topics
+    from dronefleet.messaging.client import BrokerClient
+    from dronefleet.messaging.codec import decode_object
+    from dronefleet.messaging.missions import MissionRequest, encode_steps_base64
+    from dronefleet.messaging.topics import Channel, Direction
+
+    finished = asyncio.Event()
+    outcome: dict[str, bool] = {}
+
+    async def show(topic_name: str, payload: bytes) -> None:
+        msg = decode_object(payload)
+        if msg.get("mission_id") != "demo-square":
+            return
+        pos = msg.get("position") or {}
+        dur = msg.get("step_duration_s")
+        line = (
+            f"  [{msg.get('vehicle_time_s', 0):7.1f} s] {drone_id} {msg['event']:<9} "
+            f"step {msg.get('step_index', '-')!s:>3} {msg.get('command') or '':<16}"
+            f"{'' if dur is None else f'{dur:6.1f} s'}  at {pos.get('lat', 0):.6f},"
+            f"{pos.get('lon', 0):.6f} {pos.get('relative_alt_m', 0):5.1f} m"
+        )
+        print(line + (f"  {msg['error']}" if msg.get("error") else ""), flush=True)
+        if msg["event"] in {"completed", "failed", "rejected", "stopped"}:
+            outcome["ok"] = msg["event"] == "completed"
+            finished.set()
+
+    home = fleet.world.vehicles[drone_id].home
+    async with BrokerClient(broker_url, "demo-mission") as client:
+        await client.subscribe(topics.topic(drone_id, Channel.MISSION, Direction.OUT), show)
+        steps = demo_mission(home)
+        print(f"sending a {len(steps)}-step demo mission to {drone_id} (base64, as the seed did)")
+        await client.publish(
+            topics.topic(drone_id, Channel.MISSION, Direction.IN),
+            MissionRequest(mission_id="demo-square", mission=encode_steps_base64(steps)),
+        )
+        waiters = {asyncio.create_task(finished.wait()), asyncio.create_task(stop.wait())}
+        _, pending = await asyncio.wait(waiters, return_when=asyncio.FIRST_COMPLETED)
+        for task in pending:
+            task.cancel()
+    return outcome.get("ok", False)

@@ -1,0 +1,103 @@
+"""One drone's software (seed Figure 3.2): Drone Controller with its Mission Worker, Gear Manager,
+Fail-safe System and Logger, each with its own connection to the drone's broker.
+
+On a real drone the broker is the internal Mosquitto bridged to the ground (Listing 4.3); in the
+demo and tests it may be the ground broker itself.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+
+from dronefleet.drone.config import DroneConfig
+from dronefleet.drone.controller import DroneController
+from dronefleet.drone.failsafe import FailSafe
+from dronefleet.drone.fc.base import FlightController
+from dronefleet.drone.gear import GearManager
+from dronefleet.drone.logger import DroneLogger
+from dronefleet.drone.mission_worker import MissionWorker
+from dronefleet.drone.payload import Camera, Sensor
+from dronefleet.messaging.client import BrokerClient
+from dronefleet.messaging.url import BrokerUrl
+
+log = logging.getLogger(__name__)
+
+
+class DroneApp:
+    """Starts and stops every drone-side component around one flight controller."""
+
+    def __init__(
+        self,
+        config: DroneConfig,
+        fc: FlightController,
+        broker: str | BrokerUrl,
+        *,
+        sensors: dict[str, Sensor] | None = None,
+        camera: Camera | None = None,
+    ) -> None:
+        self.config = config
+        self.fc = fc
+        drone_id = config.drone_id
+
+        def client(role: str) -> BrokerClient:
+            return BrokerClient(broker, f"{drone_id}-{role}")
+
+        self.clients = {role: client(role) for role in ("controller", "gear", "failsafe", "logger")}
+        self.controller = DroneController(config, self.clients["controller"], fc)
+        self.mission_worker = MissionWorker(self.controller)
+        self.gear = GearManager(
+            drone_id,
+            self.clients["gear"],
+            fc.clock,
+            gear_dir=config.gear_dir,
+            sensors=sensors,
+            camera=camera,
+        )
+        self.failsafe = FailSafe(
+            drone_id,
+            self.clients["failsafe"],
+            fc.clock,
+            battery_critical_pct=config.battery_critical_pct,
+            sensor_bounds=config.sensor_bounds,
+        )
+        self.logger = (
+            DroneLogger(drone_id, self.clients["logger"], config.log_dir)
+            if config.log_dir is not None
+            else None
+        )
+        if self.logger is not None:
+            self.controller.add_event_listener(self.logger.log_event)
+
+    @property
+    def drone_id(self) -> str:
+        return self.config.drone_id
+
+    async def start(self, *, timeout_s: float = 15.0) -> DroneApp:
+        await self.fc.connect()
+        await asyncio.gather(*(c.start(timeout_s=timeout_s) for c in self.clients.values()))
+        if self.logger is not None:
+            await self.logger.start()
+        await self.gear.start()
+        await self.failsafe.start()
+        await self.mission_worker.start()
+        await self.controller.start()
+        log.info("drone %s up on %s", self.drone_id, self.clients["controller"].url)
+        return self
+
+    async def stop(self) -> None:
+        await self.controller.stop()
+        await self.mission_worker.stop()
+        await self.failsafe.stop()
+        await self.gear.stop()
+        if self.logger is not None:
+            await self.logger.stop()
+        for c in self.clients.values():
+            await c.stop()
+        await self.fc.close()
+
+    async def __aenter__(self) -> DroneApp:
+        return await self.start()
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.stop()

@@ -1,0 +1,165 @@
+"""``dronefleet drone``: run one drone's software (normally on its companion computer)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import signal
+import sys
+from pathlib import Path
+
+from dronefleet.geo.types import LLA
+
+DEFAULT_HOME = "40.63,-8.659,10"  # a field on the University of Aveiro campus, the seed's site
+
+
+def parse_lla(text: str) -> LLA:
+    try:
+        parts = [float(p) for p in text.split(",")]
+        if len(parts) == 2:
+            parts.append(0.0)
+        lat, lon, alt = parts
+        return LLA(lat, lon, alt)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            f"expected LAT,LON[,ALT] in degrees/metres: {exc}"
+        ) from exc
+
+
+def parse_bound(text: str) -> tuple[str, tuple[float | None, float | None]]:
+    try:
+        name, low, high = text.split(":")
+        return name, (float(low) if low else None, float(high) if high else None)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError("expected FIELD:LOW:HIGH, e.g. co2_ppm::1000") from exc
+
+
+def parse_plume(text: str) -> tuple[float, float, float, float]:
+    try:
+        lat, lon, peak, radius = (float(p) for p in text.split(","))
+        return lat, lon, peak, radius
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError("expected LAT,LON,PEAK_PPM,RADIUS_M") from exc
+
+
+def add_sim_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--home", type=parse_lla, default=parse_lla(DEFAULT_HOME), help="LAT,LON,ALT")
+    p.add_argument("--speedup", type=float, default=1.0, help="vehicle seconds per wall second")
+    p.add_argument("--battery-pct", type=float, default=100.0, help="initial charge (sim)")
+    p.add_argument(
+        "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"
+    )
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "drone", help="run one drone's software (controller, gear, fail-safe, logger)"
+    )
+    p.add_argument("--id", dest="drone_id", help="drone id (default: from the MAC address)")
+    p.add_argument("--broker", default="mqtt://127.0.0.1:1883", help="mqtt://user:pass@host:port")
+    p.add_argument(
+        "--fc",
+        choices=["sim", "mavlink", "uavtalk"],
+        default="sim",
+        help="flight-controller backend",
+    )
+    p.add_argument(
+        "--fc-url",
+        help="autopilot link, e.g. udpout:127.0.0.1:14550 (mavlink) or tcp:127.0.0.1:9000",
+    )
+    add_sim_arguments(p)
+    p.add_argument("--log-dir", type=Path, help="rotating JSONL logs go here")
+    p.add_argument("--gear-dir", type=Path, help="folder with specs.json and sensors.json")
+    p.add_argument("--heartbeat-s", type=float, default=5.0, help="heartbeat interval (vehicle s)")
+    p.add_argument("--battery-critical", type=float, default=20.0, help="CRITICAL alarm below %%")
+    p.add_argument(
+        "--sensor-bound", type=parse_bound, action="append", default=[], help="FIELD:LOW:HIGH"
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from dronefleet.drone.config import DroneConfig
+    from dronefleet.drone.identity import default_drone_id
+    from dronefleet.messaging.topics import TopicError, check_drone_id
+
+    try:
+        drone_id = check_drone_id(args.drone_id) if args.drone_id else default_drone_id()
+    except TopicError as exc:
+        print(f"dronefleet drone: {exc}", file=sys.stderr)
+        return 2
+    config = DroneConfig(
+        drone_id=drone_id,
+        heartbeat_interval_s=args.heartbeat_s,
+        battery_critical_pct=args.battery_critical,
+        log_dir=args.log_dir,
+        gear_dir=args.gear_dir,
+    )
+    if args.sensor_bound:
+        config.sensor_bounds = dict(args.sensor_bound)
+    return asyncio.run(_serve(config, args))
+
+
+def _stop_event() -> asyncio.Event:
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError):
+            loop.add_signal_handler(sig, stop.set)
+    return stop
+
+
+async def _serve(config, args: argparse.Namespace) -> int:
+    if args.fc != "sim":
+        return await _serve_autopilot(config, args)
+    from dronefleet.drone.simulated import SimFleet
+    from dronefleet.messaging.client import BrokerUnavailable
+
+    stop = _stop_event()
+    async with SimFleet(speedup=args.speedup, plumes=args.plume) as fleet:
+        try:
+            app = await fleet.add_drone(
+                config, args.broker, home=args.home, battery_pct=args.battery_pct
+            )
+        except BrokerUnavailable as exc:
+            print(f"dronefleet drone: {exc}", file=sys.stderr)
+            return 1
+        print(f"drone {config.drone_id} ready on {app.clients['controller'].url}", flush=True)
+        await stop.wait()
+        await app.stop()
+    return 0
+
+
+async def _serve_autopilot(config, args: argparse.Namespace) -> int:
+    """The drone software on a real (or MAVLink/UAVTalk-simulated) autopilot."""
+    from dronefleet.drone.app import DroneApp
+    from dronefleet.drone.fc.base import FcError
+    from dronefleet.drone.fc.factory import BackendUnavailable, open_flight_controller
+    from dronefleet.messaging.client import BrokerUnavailable
+
+    if not args.fc_url:
+        print(f"dronefleet drone: --fc {args.fc} needs --fc-url", file=sys.stderr)
+        return 2
+    stop = _stop_event()
+    try:
+        fc, sensors, camera = await open_flight_controller(args.fc, args.fc_url)
+    except (BackendUnavailable, FcError, OSError, TimeoutError) as exc:
+        print(
+            f"dronefleet drone: cannot reach the autopilot at {args.fc_url}: {exc}", file=sys.stderr
+        )
+        return 1
+    app = DroneApp(config, fc, args.broker, sensors=sensors, camera=camera)
+    try:
+        await app.start()
+    except BrokerUnavailable as exc:
+        print(f"dronefleet drone: {exc}", file=sys.stderr)
+        await fc.close()
+        return 1
+    print(
+        f"drone {config.drone_id} ready on {app.clients['controller'].url} via {args.fc}",
+        flush=True,
+    )
+    await stop.wait()
+    await app.stop()
+    return 0

@@ -1,0 +1,243 @@
+"""Drone Controller (seed 3.3.2.2, 4.1.2): the drone's high-level control surface.
+
+It keeps the Flight Controller Interface, the Navigation Processor, the Arming Switch and the
+Mission Worker together; answers every control command of Table 4.2 on ``control/out`` with the
+request's id; announces the drone with heartbeats every 5 s (vehicle time) and streams telemetry.
+Bad input gets an error answer with the reason, and the controller keeps serving.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from typing import Any
+
+from dronefleet.drone.arming import ArmingSwitch
+from dronefleet.drone.camera_trigger import CameraTrigger
+from dronefleet.drone.config import DroneConfig
+from dronefleet.drone.fc.base import FcError, FlightController
+from dronefleet.drone.navigation import NavigationProcessor, Tolerance
+from dronefleet.drone.state import flight_state, position_of
+from dronefleet.messaging import topics
+from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
+from dronefleet.messaging.codec import MessageError, decode, decode_object
+from dronefleet.messaging.commands import Command, CommandResponse, parse_control
+from dronefleet.messaging.gear import GearQuery, GearRequest
+from dronefleet.messaging.rpc import Requester, RequestTimeout
+from dronefleet.messaging.status import BatteryStatus, Heartbeat, Telemetry
+from dronefleet.messaging.topics import Channel, Direction
+
+log = logging.getLogger(__name__)
+
+
+class CommandError(Exception):
+    """A command that could not be carried out; the message is the reason sent back."""
+
+
+class DroneController:
+    """Serves ``<id>/control/in`` and publishes heartbeats and telemetry."""
+
+    def __init__(self, config: DroneConfig, client: BrokerClient, fc: FlightController) -> None:
+        self.config = config
+        self.drone_id = config.drone_id
+        self.client = client
+        self.fc = fc
+        self.clock = fc.clock
+        self.navigation = NavigationProcessor(
+            fc,
+            takeoff_altitude_m=config.takeoff_altitude_m,
+            max_altitude_m=config.max_altitude_m,
+            tolerance=Tolerance(config.horizontal_tolerance_m, config.vertical_tolerance_m),
+        )
+        self.arming = ArmingSwitch(fc, self._event)
+        self.requester = Requester(client)
+        self.camera_trigger = CameraTrigger(fc, lambda: self.gear(GearQuery.CAPTURE))
+        self.mission_id: str | None = None
+        self.step_index: int | None = None
+        self._tasks: list[asyncio.Task[None]] = []
+        self._telemetry_task: asyncio.Task[None] | None = None
+        self._events: list[Any] = []  # listeners of local events (the Logger)
+
+    def topic(self, channel: Channel, direction: Direction = Direction.OUT) -> str:
+        return topics.topic(self.drone_id, channel, direction)
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    async def start(self) -> None:
+        await self.client.subscribe(self.topic(Channel.CONTROL, Direction.IN), self._on_control)
+        self._tasks.append(asyncio.create_task(self._heartbeats(), name="heartbeats"))
+        self._telemetry_task = asyncio.create_task(self._telemetry(), name="telemetry")
+
+    async def stop(self) -> None:
+        tasks = [*self._tasks, *([self._telemetry_task] if self._telemetry_task else [])]
+        for task in tasks:
+            task.cancel()
+        for task in tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        self._tasks.clear()
+        self._telemetry_task = None
+        await self.camera_trigger.stop()
+
+    def add_event_listener(self, listener: Any) -> None:
+        self._events.append(listener)
+
+    def _event(self, kind: str, **data: Any) -> None:
+        for listener in self._events:
+            with contextlib.suppress(Exception):
+                listener(kind, vehicle_time_s=self.clock.now(), **data)
+
+    # -- control/in --------------------------------------------------------------------------
+    async def _on_control(self, _topic: str, payload: bytes) -> None:
+        request_id, command = _ids_of(payload)
+        try:
+            request = parse_control(decode_object(payload))
+        except MessageError as exc:
+            log.info("%s: rejected control message: %s", self.drone_id, exc)
+            await self._respond(request_id, command, ok=False, error=str(exc))
+            return
+        try:
+            result = await self.execute(request)
+        except (CommandError, FcError) as exc:
+            await self._respond(request_id, command, ok=False, error=str(exc))
+        except Exception as exc:  # an unexpected fault must not take the controller down
+            log.exception("%s: %s failed", self.drone_id, command)
+            await self._respond(request_id, command, ok=False, error=f"internal error: {exc}")
+        else:
+            await self._respond(request_id, command, ok=True, result=result)
+
+    async def _respond(self, request_id: Any, command: Any, **fields: Any) -> None:
+        response = CommandResponse(
+            request_id=request_id if isinstance(request_id, str) else None,
+            drone_id=self.drone_id,
+            command=command if isinstance(command, str) else None,
+            vehicle_time_s=round(self.clock.now(), 3),
+            **fields,
+        )
+        await self.client.publish(self.topic(Channel.CONTROL), response, qos=QOS_COMMAND)
+
+    # -- the commands ------------------------------------------------------------------------
+    async def execute(self, request: Any) -> dict[str, Any]:
+        """Carry out one control command (also used by the Mission Worker for its steps)."""
+        nav = self.navigation
+        self._event("command", command=str(request.command))
+        match request.command:
+            case Command.ARM:
+                return await self.arming.arm()
+            case Command.DISARM:
+                return await self.arming.disarm(force=request.force)
+            case Command.TAKEOFF:
+                return _target(await nav.takeoff(request.value))
+            case Command.LAND:
+                await nav.land()
+                return {"landing": True}
+            case Command.NAVIGATE:
+                return _target(await nav.navigate(request.lat, request.lon, request.altitude_delta))
+            case Command.CHANGE_N:
+                return _target(await nav.change(north_m=request.value))
+            case Command.CHANGE_E:
+                return _target(await nav.change(east_m=request.value))
+            case Command.ALTITUDE:
+                return _target(await nav.change(up_m=request.value))
+            case Command.OBJREQUEST:
+                return {
+                    "object": request.value,
+                    "data": await self.fc.request_object(request.value),
+                }
+            case Command.TAKEPIC:
+                return await self.gear(GearQuery.CAPTURE)
+            case Command.RESETFC:
+                if self.fc.state().in_air and not request.force:
+                    raise CommandError("refusing to reboot the flight controller in flight")
+                await self.fc.reboot(force=request.force)
+                return {"rebooted": True}
+            case Command.REBUILDTELEMETRY:
+                await self.fc.rebuild_telemetry()
+                self._restart_telemetry()
+                return {"telemetry": "rebuilt"}
+        raise CommandError(f"command {request.command!r} is not handled by the Drone Controller")
+
+    async def gear(self, query: GearQuery, sensor: str | None = None) -> dict[str, Any]:
+        """Ask the Gear Manager over the broker (gear/in → gear/out)."""
+        try:
+            reply = await self.requester.request(
+                self.topic(Channel.GEAR, Direction.IN),
+                self.topic(Channel.GEAR, Direction.OUT),
+                GearRequest(query=query, sensor=sensor),
+                timeout_s=self.config.gear_timeout_s,
+            )
+        except RequestTimeout as exc:
+            raise CommandError(f"the Gear Manager did not answer: {exc}") from exc
+        if not reply.get("ok"):
+            raise CommandError(reply.get("error") or f"gear {query} failed")
+        return {
+            k: v for k, v in reply.items() if k in {"capture", "reading", "specs", "sensors"} and v
+        }
+
+    # -- heartbeats and telemetry ------------------------------------------------------------
+    def heartbeat(self) -> Heartbeat:
+        battery = self.fc.battery()
+        state = self.fc.state()
+        return Heartbeat(
+            drone_id=self.drone_id,
+            vehicle_time_s=round(self.clock.now(), 3),
+            interval_s=self.config.heartbeat_interval_s,
+            position=position_of(self.fc.position(), self.fc.home()),
+            home=position_of(self.fc.home(), self.fc.home()),
+            battery=BatteryStatus(
+                remaining_pct=max(0.0, min(100.0, battery.remaining_pct)),
+                voltage_v=max(0.0, battery.voltage_v),
+                current_a=battery.current_a,
+                consumed_mah=battery.consumed_mah,
+            ),
+            state=flight_state(state),
+            mode=str(state.mode),
+            mission_id=self.mission_id,
+            step_index=self.step_index,
+        )
+
+    async def _heartbeats(self) -> None:
+        topic_name = self.topic(Channel.HEARTBEATS)
+        while True:
+            try:
+                await self.client.publish(
+                    topic_name, self.heartbeat(), qos=QOS_STREAM, disposable=True
+                )
+            except Exception:
+                log.exception("%s: heartbeat failed", self.drone_id)
+            await self.clock.sleep(self.config.heartbeat_interval_s)
+
+    async def _telemetry(self) -> None:
+        topic_name = self.topic(Channel.TELEMETRY)
+        min_gap_s = 1.0 / self.config.telemetry_max_wall_hz
+        last = 0.0
+        async for sample in self.fc.telemetry():
+            now = time.monotonic()
+            if now - last < min_gap_s:
+                continue
+            last = now
+            message = Telemetry(
+                drone_id=self.drone_id, vehicle_time_s=round(self.clock.now(), 3), fields=sample
+            )
+            await self.client.publish(topic_name, message, qos=QOS_STREAM, disposable=True)
+
+    def _restart_telemetry(self) -> None:
+        if self._telemetry_task is not None:
+            self._telemetry_task.cancel()
+        self._telemetry_task = asyncio.create_task(self._telemetry(), name="telemetry")
+
+
+def _target(target: Any) -> dict[str, Any]:
+    return {"target": {"lat": target.lat, "lon": target.lon, "alt_m": round(target.alt_m, 3)}}
+
+
+def _ids_of(payload: bytes) -> tuple[Any, Any]:
+    """Best-effort request id and command of a message that may be malformed."""
+    try:
+        data = decode(payload)
+    except MessageError:
+        return None, None
+    if isinstance(data, dict):
+        return data.get("request_id"), data.get("command")
+    return None, None

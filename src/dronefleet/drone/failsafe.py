@@ -1,0 +1,242 @@
+"""The Fail-safe System (seed 3.3.2.4): watches the drone's own telemetry and raises alarms.
+
+It listens on the internal broker to ``<id>/telemetry/out`` (flight data from the Drone Controller:
+``battery_pct``, ``lat``, ``lon``, ``alt_m``, ``relative_alt_m``; sensor fields from the Gear
+Manager, e.g. ``co2_ppm``) and ``<id>/mission/out`` (to name the mission and step in its alarms).
+
+* A battery below the critical threshold raises exactly one ``CRITICAL`` alarm: the ground replaces
+  the drone. It re-arms only when the battery is back ``battery_rearm_pct`` points above the
+  threshold (a battery swap), so a noisy gauge around 20 % does not raise a storm of alarms.
+* A sensor reading outside its bounds raises exactly one ``OUT_MEASURE`` alarm per excursion: the
+  ground starts a collaborative survey. It re-arms once the reading is back inside its bounds by a
+  5 % hysteresis margin (of the band when both bounds are given, else of the bound).
+
+Every alarm carries a position. Until the first position fix arrives, alarms wait (they are sent
+with the first fix); afterwards the last known position is used.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import ValidationError
+
+from dronefleet.clock import Clock
+from dronefleet.messaging import topics
+from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
+from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.commands import AlarmLevel
+from dronefleet.messaging.common import Position
+from dronefleet.messaging.missions import ProgressEvent
+from dronefleet.messaging.status import Alarm
+from dronefleet.messaging.topics import Channel, Direction
+
+log = logging.getLogger(__name__)
+
+BATTERY_FIELD = "battery_pct"
+HYSTERESIS_FRACTION = 0.05
+_MISSION_OVER = frozenset({ProgressEvent.COMPLETED, ProgressEvent.STOPPED, ProgressEvent.FAILED})
+
+
+@dataclass
+class BoundWatch:
+    """One field's bounds and whether it is out of them (``side``: ``"low"``/``"high"``/None)."""
+
+    field: str
+    low: float | None
+    high: float | None
+    rearm_margin: float
+    side: str | None = None
+
+    def update(self, value: float) -> str | None:
+        """Feed one value; return the side of a *new* excursion, else None."""
+        if self.low is not None and value < self.low:
+            side = "low"
+        elif self.high is not None and value > self.high:
+            side = "high"
+        else:
+            side = None
+        if side is not None:
+            new = side != self.side
+            self.side = side
+            return side if new else None
+        if self.side is not None and self._back_inside(value):
+            self.side = None
+        return None
+
+    def _back_inside(self, value: float) -> bool:
+        """Inside the bounds by at least the re-arm margin."""
+        if self.side == "low":
+            return self.low is None or value >= self.low + self.rearm_margin
+        return self.high is None or value <= self.high - self.rearm_margin
+
+
+def sensor_watch(field: str, low: float | None, high: float | None) -> BoundWatch:
+    """A watch with the 5 % hysteresis margin for a sensor field."""
+    if low is not None and high is not None:
+        if low > high:
+            raise ValueError(f"bounds for {field}: low {low} is above high {high}")
+        margin = HYSTERESIS_FRACTION * (high - low)
+    else:
+        bound = low if low is not None else high
+        if bound is None:
+            raise ValueError(f"bounds for {field}: give a low bound, a high bound or both")
+        margin = HYSTERESIS_FRACTION * abs(bound)
+    return BoundWatch(field, low, high, margin)
+
+
+@dataclass
+class _Pending:
+    level: AlarmLevel
+    message: str
+    reading: dict[str, Any]
+    vehicle_time_s: float
+
+
+def _number(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+class FailSafe:
+    """Raises CRITICAL (battery) and OUT_MEASURE (sensor bounds) alarms, once per crossing."""
+
+    def __init__(
+        self,
+        drone_id: str,
+        client: BrokerClient,
+        clock: Clock,
+        *,
+        battery_critical_pct: float = 20.0,
+        sensor_bounds: dict[str, tuple[float | None, float | None]] | None = None,
+        battery_rearm_pct: float = 5.0,
+    ) -> None:
+        self.drone_id = topics.check_drone_id(drone_id)
+        self.client = client
+        self.clock = clock
+        self.battery = BoundWatch(BATTERY_FIELD, battery_critical_pct, None, battery_rearm_pct)
+        self.sensors = {
+            field: sensor_watch(field, low, high)
+            for field, (low, high) in (sensor_bounds or {}).items()
+        }
+        self.position: Position | None = None
+        self.mission_id: str | None = None
+        self.step_index: int | None = None
+        self.alarms_raised = 0
+        self._pending: list[_Pending] = []
+        self._running = False
+        self._subscribed = False
+        self._telemetry_topic = topics.topic(drone_id, Channel.TELEMETRY, Direction.OUT)
+        self._mission_topic = topics.topic(drone_id, Channel.MISSION, Direction.OUT)
+        self._alarm_topic = topics.topic(drone_id, Channel.ALARMS, Direction.OUT)
+
+    async def start(self) -> None:
+        self._running = True
+        if not self._subscribed:
+            await self.client.subscribe(self._telemetry_topic, self._on_telemetry, qos=QOS_STREAM)
+            await self.client.subscribe(self._mission_topic, self._on_mission, qos=QOS_COMMAND)
+            self._subscribed = True
+
+    async def stop(self) -> None:
+        self._running = False
+
+    # -- inputs ------------------------------------------------------------------------------
+    async def _on_mission(self, _topic: str, payload: bytes) -> None:
+        try:
+            data = decode_object(payload)
+        except MessageError:
+            return
+        if data.get("kind", "progress") != "progress" or not isinstance(
+            data.get("mission_id"), str
+        ):
+            return
+        event = data.get("event")
+        if event == ProgressEvent.REJECTED:
+            return  # nothing changed on board
+        if event in _MISSION_OVER:
+            self.mission_id, self.step_index = None, None
+            return
+        step = data.get("step_index")
+        self.mission_id = data["mission_id"]
+        self.step_index = step if isinstance(step, int) and not isinstance(step, bool) else None
+
+    async def _on_telemetry(self, _topic: str, payload: bytes) -> None:
+        if not self._running:
+            return
+        try:
+            data = decode_object(payload)
+        except MessageError as exc:
+            log.debug("fail-safe: dropping telemetry: %s", exc)
+            return
+        fields = data.get("fields")
+        if not isinstance(fields, dict):
+            return
+        vehicle_time_s = _number(data.get("vehicle_time_s"))
+        self.observe(fields, self.clock.now() if vehicle_time_s is None else vehicle_time_s)
+        await self._flush()
+
+    def observe(self, fields: dict[str, Any], vehicle_time_s: float) -> None:
+        """Take one telemetry field map into account; queue any alarm it raises."""
+        self._update_position(fields)
+        battery = _number(fields.get(BATTERY_FIELD))
+        if battery is not None and self.battery.update(battery) is not None:
+            threshold = self.battery.low
+            self._pending.append(
+                _Pending(
+                    AlarmLevel.CRITICAL,
+                    f"battery {battery:.1f}% below {threshold:g}% threshold",
+                    {"field": BATTERY_FIELD, "value": battery, "low": threshold, "high": None},
+                    vehicle_time_s,
+                )
+            )
+        for field, watch in self.sensors.items():
+            value = _number(fields.get(field))
+            side = None if value is None else watch.update(value)
+            if side is None:
+                continue
+            bound = watch.low if side == "low" else watch.high
+            where = "below" if side == "low" else "above"
+            self._pending.append(
+                _Pending(
+                    AlarmLevel.OUT_MEASURE,
+                    f"{field} {value:g} {where} its {side} bound {bound:g}",
+                    {"field": field, "value": value, "low": watch.low, "high": watch.high},
+                    vehicle_time_s,
+                )
+            )
+
+    def _update_position(self, fields: dict[str, Any]) -> None:
+        lat, lon, alt = (_number(fields.get(k)) for k in ("lat", "lon", "alt_m"))
+        if lat is None or lon is None or alt is None:
+            return
+        try:
+            self.position = Position(
+                lat=lat, lon=lon, alt_m=alt, relative_alt_m=_number(fields.get("relative_alt_m"))
+            )
+        except ValidationError:
+            log.debug("fail-safe: ignoring an impossible position %s, %s, %s", lat, lon, alt)
+
+    # -- output ------------------------------------------------------------------------------
+    async def _flush(self) -> None:
+        if self.position is None or not self._pending:
+            return  # alarms wait for the first position fix
+        pending, self._pending = self._pending, []
+        for item in pending:
+            alarm = Alarm(
+                drone_id=self.drone_id,
+                level=item.level,
+                message=item.message,
+                position=self.position,
+                reading=item.reading,
+                mission_id=self.mission_id,
+                step_index=self.step_index,
+                vehicle_time_s=item.vehicle_time_s,
+            )
+            log.warning("fail-safe alarm %s on %s: %s", item.level, self.drone_id, item.message)
+            self.alarms_raised += 1
+            await self.client.publish(self._alarm_topic, alarm, qos=QOS_COMMAND)

@@ -1,0 +1,1 @@
+"""Flight Controller Interface: one protocol, several backends (sim, mavlink, uavtalk)."""

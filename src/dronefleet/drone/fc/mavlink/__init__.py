@@ -1,0 +1,41 @@
+"""The ``mavlink`` flight-controller backend (Flight Controller Interface, seed 3.3.2.2 / 4.1.2.1):
+ArduPilot Copter and PX4 over pymavlink, found by ``dronefleet drone --fc mavlink --fc-url URL``.
+
+Modules: :mod:`.codec` (framing), :mod:`.link` (asyncio link, heartbeat watchdog), :mod:`.clock`
+(the autopilot's time), :mod:`.commands` (COMMAND_LONG/ACK with retries), :mod:`.modes` (ArduPilot
+and PX4 mode encodings), :mod:`.items` and :mod:`.mission` (missions on board), :mod:`.objects`
+(objrequest), :mod:`.payload` (gas sensor and camera), :mod:`.controller` (the FlightController).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from dronefleet.drone.fc.mavlink.controller import MavlinkFlightController
+from dronefleet.drone.fc.mavlink.items import MissionItem
+from dronefleet.drone.fc.mavlink.mission import MissionProgress
+from dronefleet.drone.fc.mavlink.payload import AutopilotCamera, NamedValueSensor
+from dronefleet.drone.payload import Camera, Sensor
+
+__all__ = [
+    "AutopilotCamera",
+    "MavlinkFlightController",
+    "MissionItem",
+    "MissionProgress",
+    "NamedValueSensor",
+    "open_flight_controller",
+    "payload",
+]
+
+
+async def open_flight_controller(url: str, **options: Any) -> MavlinkFlightController:
+    """A connected controller for the autopilot at ``url`` (home known); ``options`` go to
+    :class:`MavlinkFlightController` (e.g. ``telemetry_rate_hz``, ``target_system``)."""
+    fc = MavlinkFlightController(url, **options)
+    await fc.connect()
+    return fc
+
+
+def payload(fc: MavlinkFlightController) -> tuple[dict[str, Sensor], Camera | None]:
+    """The Gear Manager's view of the vehicle: a CO2 sensor and the autopilot's camera."""
+    return {"CO2": NamedValueSensor(fc, "CO2", "ppm")}, AutopilotCamera(fc)

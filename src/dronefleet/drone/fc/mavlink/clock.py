@@ -1,0 +1,95 @@
+"""The autopilot's clock (DESIGN.md §4): vehicle seconds from MAVLink ``time_boot_ms``.
+
+Drone-side waiting (mission ``sleep`` steps, heartbeats, telemetry) must run on the vehicle's time
+so that a simulation sped up 20 times still reports its durations in vehicle seconds. The autopilot
+stamps most messages with its boot time; this clock interpolates between those stamps at the rate
+it observes (vehicle seconds per wall second), so ``now()`` is smooth and ``sleep(d)`` returns once
+the autopilot's own time has advanced by ``d``. A reboot restarts ``time_boot_ms`` at zero; the
+clock adds the time before the reboot so that its ``now()`` never runs backwards.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import time
+
+#: Wall seconds of stamps kept for the rate estimate.
+_WINDOW_WALL_S = 3.0
+#: Shortest wall span over which a rate is trusted.
+_MIN_SPAN_WALL_S = 0.3
+#: A stamp this far behind the previous one means the autopilot rebooted.
+_REBOOT_JUMP_S = 1.0
+#: ... and once a reboot was commanded (stamps never go back by more than jitter otherwise).
+_EXPECTED_JUMP_S = 0.01
+#: Longest wall sleep between looks at the clock (the rate may change meanwhile).
+_MAX_WALL_NAP_S = 0.05
+
+
+class AutopilotClock:
+    """Vehicle time from boot stamps; satisfies :class:`dronefleet.clock.Clock`."""
+
+    def __init__(self) -> None:
+        self._offset_s = 0.0  # boot time accumulated over earlier boots
+        self._last_boot_s: float | None = None
+        self._last_wall = time.monotonic()
+        self._base_s = 0.0  # clock time at _last_wall
+        self._rate = 1.0
+        self._samples: collections.deque[tuple[float, float]] = collections.deque()
+        self._reported = 0.0
+        self._expect_reboot = False
+        self.boot_count = 0
+
+    @property
+    def speedup(self) -> float:
+        """Observed vehicle seconds per wall second (1 until enough stamps arrived)."""
+        return self._rate
+
+    @property
+    def synced(self) -> bool:
+        return self._last_boot_s is not None
+
+    def observe(self, time_boot_ms: int, wall: float | None = None) -> None:
+        """Take a ``time_boot_ms`` stamp from a message received at ``wall`` (monotonic)."""
+        wall = time.monotonic() if wall is None else wall
+        boot_s = time_boot_ms / 1000.0
+        jump = _EXPECTED_JUMP_S if self._expect_reboot else _REBOOT_JUMP_S
+        if self._last_boot_s is not None and boot_s < self._last_boot_s - jump:
+            self._expect_reboot = False
+            self._offset_s += self._last_boot_s
+            self._samples.clear()
+            self.boot_count += 1
+        self._last_boot_s = boot_s
+        t = self._offset_s + boot_s
+        samples = self._samples
+        samples.append((wall, t))
+        while samples and wall - samples[0][0] > _WINDOW_WALL_S:
+            samples.popleft()
+        span = wall - samples[0][0]
+        if span >= _MIN_SPAN_WALL_S:
+            rate = (t - samples[0][1]) / span
+            if rate > 0:
+                self._rate = min(max(rate, 1e-3), 1e5)
+        self._base_s, self._last_wall = t, wall
+
+    def expect_reboot(self) -> None:
+        """A reboot was commanded: the next step back in boot time, however small, is it."""
+        self._expect_reboot = True
+
+    def now(self) -> float:
+        t = self._base_s + (time.monotonic() - self._last_wall) * self._rate
+        # Stamps arrive with jitter: never report time running backwards.
+        self._reported = max(self._reported, t)
+        return self._reported
+
+    async def sleep(self, duration_s: float) -> None:
+        """Wait until the autopilot's time has advanced by ``duration_s`` vehicle seconds."""
+        if duration_s <= 0:
+            await asyncio.sleep(0)
+            return
+        deadline = self.now() + duration_s
+        while (left := deadline - self.now()) > 0:
+            await asyncio.sleep(min(max(left / self._rate, 0.0005), _MAX_WALL_NAP_S))
+
+    def __repr__(self) -> str:
+        return f"AutopilotClock(now={self.now():.3f}s, rate={self._rate:.2f})"

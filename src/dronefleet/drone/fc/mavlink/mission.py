@@ -1,0 +1,219 @@
+"""Missions on board: upload, download and progress over the MAVLink mission protocol.
+
+Upload: MISSION_COUNT → the autopilot asks for each item (MISSION_REQUEST_INT) → MISSION_ITEM_INT
+→ … → MISSION_ACK. Every step is retried on timeout, as the protocol expects. ArduPilot keeps
+its home position as item 0, so :meth:`MissionClient.upload` prepends it there and progress
+reports both the raw sequence number and the index in the caller's list. Progress comes from
+MISSION_CURRENT (the item being flown) and MISSION_ITEM_REACHED; it is the autopilot that flies, so
+a mission keeps going when this link (or the whole companion computer) is gone, and a new
+:class:`MissionClient` picks the progress up again after reconnecting.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import AsyncIterator
+from dataclasses import dataclass
+
+from dronefleet.drone.fc.base import FcError
+from dronefleet.drone.fc.mavlink.codec import Message
+from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.drone.fc.mavlink.commands import CommandSender
+from dronefleet.drone.fc.mavlink.items import ABSOLUTE, MISSION, MissionItem
+from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
+from dronefleet.drone.fc.mavlink.modes import Autopilot
+from dronefleet.geo.types import LLA
+
+
+@dataclass(frozen=True, slots=True)
+class MissionProgress:
+    """One progress event: ``kind`` is "current" (now flying ``seq``) or "reached"."""
+
+    kind: str
+    seq: int
+    index: int  # position in the uploaded list (seq minus ArduPilot's home item)
+    total: int | None
+    vehicle_time_s: float
+
+
+class MissionClient:
+    """The mission facade of one vehicle (``fc.mission``)."""
+
+    def __init__(
+        self,
+        link: MavlinkLink,
+        commands: CommandSender,
+        autopilot: Autopilot,
+        clock,
+        *,
+        timeout_s: float = 1.5,
+        retries: int = 5,
+    ) -> None:
+        self.link = link
+        self.commands = commands
+        self.autopilot = autopilot
+        self.clock = clock
+        self.timeout_s = timeout_s
+        self.retries = retries
+        self.current_seq: int | None = None
+        self.reached: list[int] = []
+        self._queues: list[asyncio.Queue[MissionProgress]] = []
+        self._total: int | None = None
+        link.add_listener(self._on_message)
+
+    @property
+    def offset(self) -> int:
+        """Items before the caller's first one (ArduPilot's home at seq 0)."""
+        return 1 if self.autopilot is Autopilot.ARDUPILOT else 0
+
+    # -- upload / download ------------------------------------------------------------------
+    async def upload(self, items: list[MissionItem], home: LLA | None = None) -> None:
+        """Replace the vehicle's mission with ``items``; returns once the autopilot accepted."""
+        full = list(items)
+        if self.offset:
+            h = home or LLA(0.0, 0.0, 0.0)
+            full.insert(
+                0, MissionItem(mav.MAV_CMD_NAV_WAYPOINT, z=h.alt_m, frame=ABSOLUTE).at(h.lat, h.lon)
+            )
+        target, comp = self._target(), self.link.target_component
+        count = mav.MAVLink_mission_count_message(target, comp, len(full), MISSION)
+        done: asyncio.Future[Message] = asyncio.get_running_loop().create_future()
+        requests: asyncio.Queue[int] = asyncio.Queue()
+
+        def on(msg: Message) -> None:
+            kind = msg.get_type()
+            if getattr(msg, "mission_type", MISSION) != MISSION:
+                return
+            if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+                requests.put_nowait(msg.seq)
+            elif kind == "MISSION_ACK" and not done.done():
+                done.set_result(msg)
+
+        remove = self.link.add_listener(on)
+        try:
+            self._send(count)
+            misses = 0
+            while not done.done():
+                getter = asyncio.ensure_future(requests.get())
+                finished, _ = await asyncio.wait(
+                    {getter, done}, timeout=self.timeout_s, return_when=asyncio.FIRST_COMPLETED
+                )
+                if getter in finished:
+                    seq = getter.result()
+                    if 0 <= seq < len(full):
+                        self._send(full[seq].to_message(target, comp, seq))
+                    misses = 0
+                    continue
+                getter.cancel()
+                if done.done():
+                    break
+                misses += 1
+                if misses > self.retries:
+                    raise FcError(
+                        f"mission upload: the autopilot stopped answering ({self.link.describe()})"
+                    )
+                self._send(count)  # nothing asked yet (or lost): start over
+            ack = done.result()
+        finally:
+            remove()
+        if ack.type != mav.MAV_MISSION_ACCEPTED:
+            entry = mav.enums["MAV_MISSION_RESULT"].get(ack.type)
+            reason = entry.name if entry else str(ack.type)
+            raise FcError(f"mission upload refused: {reason}")
+        self._total = len(full)
+
+    async def download(self) -> list[MissionItem]:
+        """The mission on board (without ArduPilot's home item)."""
+        target, comp = self._target(), self.link.target_component
+        count_msg = await self._ask(
+            mav.MAVLink_mission_request_list_message(target, comp, MISSION), "MISSION_COUNT"
+        )
+        items: list[MissionItem] = []
+        for seq in range(count_msg.count):
+            item = await self._ask(
+                mav.MAVLink_mission_request_int_message(target, comp, seq, MISSION),
+                "MISSION_ITEM_INT",
+                lambda m, seq=seq: m.seq == seq,
+            )
+            items.append(MissionItem.from_message(item))
+        self._send(mav.MAVLink_mission_ack_message(target, comp, mav.MAV_MISSION_ACCEPTED, MISSION))
+        self._total = len(items)
+        return items[self.offset :]
+
+    async def clear(self) -> None:
+        target, comp = self._target(), self.link.target_component
+        ack = await self._ask(
+            mav.MAVLink_mission_clear_all_message(target, comp, MISSION), "MISSION_ACK"
+        )
+        if ack.type != mav.MAV_MISSION_ACCEPTED:
+            raise FcError(f"mission clear refused ({ack.type})")
+
+    async def start(self, first_index: int = 0) -> None:
+        """Fly the mission on board from ``first_index`` (switches to AUTO; must be armed)."""
+        first = first_index + self.offset
+        await self.commands.long(mav.MAV_CMD_MISSION_START, first, 0)
+
+    async def set_current(self, index: int) -> None:
+        seq = index + self.offset
+        await self.commands.long(mav.MAV_CMD_DO_SET_MISSION_CURRENT, seq)
+
+    # -- progress -------------------------------------------------------------------------------
+    def _on_message(self, msg: Message) -> None:
+        kind = msg.get_type()
+        if kind == "MISSION_CURRENT":
+            total = getattr(msg, "total", 0) or self._total
+            if msg.seq == self.current_seq:
+                return
+            self.current_seq = msg.seq
+            self._publish(
+                MissionProgress("current", msg.seq, msg.seq - self.offset, total, self.clock.now())
+            )
+        elif kind == "MISSION_ITEM_REACHED":
+            self.reached.append(msg.seq)
+            self._publish(
+                MissionProgress(
+                    "reached", msg.seq, msg.seq - self.offset, self._total, self.clock.now()
+                )
+            )
+
+    def _publish(self, event: MissionProgress) -> None:
+        for queue in self._queues:
+            queue.put_nowait(event)
+
+    async def progress(self) -> AsyncIterator[MissionProgress]:
+        """Progress events as the autopilot reports them (async generator; runs until closed).
+        Starts with the item being flown now, when known."""
+        queue: asyncio.Queue[MissionProgress] = asyncio.Queue()
+        if self.current_seq is not None:
+            seq = self.current_seq
+            queue.put_nowait(
+                MissionProgress("current", seq, seq - self.offset, self._total, self.clock.now())
+            )
+        self._queues.append(queue)
+        try:
+            while True:
+                yield await queue.get()
+        finally:
+            with contextlib.suppress(ValueError):
+                self._queues.remove(queue)
+
+    # -- internals -------------------------------------------------------------------------------
+    def _target(self) -> int:
+        if self.link.target_system is None:
+            raise FcError(self.link.describe())
+        return self.link.target_system
+
+    def _send(self, msg: Message) -> None:
+        try:
+            self.link.send(msg)
+        except LinkLost as exc:
+            raise FcError(str(exc)) from exc
+
+    async def _ask(self, request: Message, answer: str, predicate=None) -> Message:
+        for _ in range(self.retries + 1):
+            self._send(request)
+            got = await self.link.wait_for(answer, predicate, self.timeout_s)
+            if got is not None:
+                return got
+        raise FcError(f"no {answer} from the autopilot ({self.link.describe()})")

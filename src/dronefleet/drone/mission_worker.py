@@ -1,0 +1,337 @@
+"""Mission Worker (seed 3.3.2.2, 4.1.2.3): decodes missions, queues the steps, runs them in order.
+
+A mission arrives whole on ``mission/in`` (base64 as the seed's planner sends it, or JSON). It is
+decoded and checked before anything changes: a bad mission is rejected with the reason and the
+running one carries on. A good one replaces whatever was running. Each step done is reported on
+``mission/out`` with its index, command, position, duration (vehicle seconds) and the decode time.
+On a MAVLink autopilot a mission may be flown on board instead (:mod:`dronefleet.drone.onboard`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections import OrderedDict, deque
+from typing import Any
+
+from dronefleet.drone import onboard
+from dronefleet.drone.controller import CommandError, DroneController
+from dronefleet.drone.fc.base import FcError
+from dronefleet.drone.navigation import Tolerance
+from dronefleet.drone.state import position_of
+from dronefleet.messaging.client import QOS_COMMAND
+from dronefleet.messaging.codec import MessageError, decode, decode_object
+from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
+from dronefleet.messaging.common import validate
+from dronefleet.messaging.gear import GearQuery
+from dronefleet.messaging.missions import (
+    MissionAction,
+    MissionProgress,
+    MissionRequest,
+    ProgressEvent,
+    decode_steps,
+)
+from dronefleet.messaging.status import Alarm
+from dronefleet.messaging.topics import Channel, Direction
+
+log = logging.getLogger(__name__)
+
+
+#: Missions whose reports are kept for replay.
+HISTORY_MISSIONS = 20
+
+
+class StepFailed(Exception):
+    pass
+
+
+class MissionWorker:
+    """Runs one mission at a time on a Drone Controller."""
+
+    def __init__(self, controller: DroneController) -> None:
+        self.controller = controller
+        self.config = controller.config
+        self.clock = controller.clock
+        self.client = controller.client
+        self.queue: deque[Any] = deque()  # the internal task queue of Figure 4.14
+        self.mission_id: str | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._lock = asyncio.Lock()
+        self._sensor_names: list[str] | None = None
+        # Every report of the last missions, re-sent on request to a planner that missed some.
+        self.history: OrderedDict[str, list[MissionProgress]] = OrderedDict()
+
+    async def start(self) -> None:
+        await self.client.subscribe(
+            self.controller.topic(Channel.MISSION, Direction.IN), self._on_mission
+        )
+
+    async def stop(self) -> None:
+        await self._cancel_current()
+
+    @property
+    def running(self) -> bool:
+        return self._task is not None and not self._task.done()
+
+    # -- mission/in --------------------------------------------------------------------------
+    async def _on_mission(self, _topic: str, payload: bytes) -> None:
+        started = time.perf_counter()
+        request_id, mission_id = _ids_of(payload)
+        try:
+            request = validate(MissionRequest, decode_object(payload))
+            steps = decode_steps(request) if request.action is MissionAction.START else []
+        except MessageError as exc:
+            log.info("%s: mission rejected: %s", self.controller.drone_id, exc)
+            await self._report(
+                ProgressEvent.REJECTED,
+                mission_id or "",
+                request_id=request_id,
+                ok=False,
+                error=str(exc),
+            )
+            return
+        decode_time_s = time.perf_counter() - started
+        if request.action is MissionAction.REPORT:
+            await self._replay(request.mission_id, request_id)
+            return
+        async with self._lock:
+            if request.action is MissionAction.STOP:
+                stopped = self.mission_id
+                await self._cancel_current(reason="stopped on request", request_id=request_id)
+                if self._in_air():
+                    await self.controller.navigation.hold()
+                if stopped is None:
+                    await self._report(
+                        ProgressEvent.STOPPED,
+                        request.mission_id,
+                        request_id=request_id,
+                        result={"note": "no mission was running"},
+                    )
+                return
+            mission_id = request.mission_id or f"m-{int(time.time() * 1000)}"
+            await self._cancel_current(reason=f"replaced by mission {mission_id}")
+            self.queue = deque(enumerate(steps, start=request.start_index))
+            self.mission_id = mission_id
+            self.controller.mission_id = mission_id
+            await self._report(
+                ProgressEvent.ACCEPTED,
+                mission_id,
+                request_id=request_id,
+                step_count=len(steps),
+                decode_time_s=round(decode_time_s, 6),
+            )
+            self._task = asyncio.create_task(
+                self._run(mission_id, len(steps), request.start_index), name=f"mission:{mission_id}"
+            )
+
+    async def _cancel_current(self, *, reason: str = "", request_id: str | None = None) -> None:
+        task, mission_id = self._task, self.mission_id
+        if task is not None and not task.done():
+            await self.controller.camera_trigger.stop()
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+            await self._report(
+                ProgressEvent.STOPPED,
+                mission_id or "",
+                request_id=request_id,
+                step_index=self.controller.step_index,
+                error=reason or None,
+            )
+        self._task = None
+        self.queue.clear()
+        self.mission_id = None
+        self.controller.mission_id = None
+
+    # -- running -----------------------------------------------------------------------------
+    async def _run(self, mission_id: str, count: int, start_index: int) -> None:
+        mission_started = self.clock.now()
+        trigger = self.controller.camera_trigger
+        trigger.pictures = []
+        self._sensor_names = None
+        steps = list(self.queue)
+        if await onboard.fly(self, mission_id, steps, count):  # the autopilot flew it
+            self.queue.clear()
+            self._finish()
+            return
+        while self.queue:
+            index, step = self.queue.popleft()
+            self.controller.step_index = index
+            began = self.clock.now()
+            try:
+                result = await self.execute_step(step)
+            except (CommandError, FcError, StepFailed) as exc:
+                await self._report(
+                    ProgressEvent.FAILED,
+                    mission_id,
+                    step_index=index,
+                    step_count=count,
+                    command=str(step.command),
+                    ok=False,
+                    error=str(exc),
+                    step_started_s=began,
+                    step_duration_s=self.clock.now() - began,
+                )
+                self._finish()
+                return
+            await self._report(
+                ProgressEvent.STEP,
+                mission_id,
+                step_index=index,
+                step_count=count,
+                command=str(step.command),
+                step_started_s=began,
+                step_duration_s=self.clock.now() - began,
+                result=result or None,
+            )
+        await trigger.stop()
+        await self._report(
+            ProgressEvent.COMPLETED,
+            mission_id,
+            step_count=count,
+            step_started_s=mission_started,
+            step_duration_s=self.clock.now() - mission_started,
+            step_index=start_index + count - 1,
+            result={"triggered_pictures": len(trigger.pictures)},
+        )
+        self._finish()
+
+    def _finish(self) -> None:
+        self.mission_id = None
+        self.controller.mission_id = None
+        self.controller.step_index = None
+
+    async def execute_step(self, step: Any) -> dict[str, Any]:
+        """Run one step: control commands go to the controller; the rest are handled here."""
+        if step.command in CONTROL_COMMANDS:
+            return await self.controller.execute(step)
+        match step.command:
+            case Command.WAIT_FOR_FLIGHT:
+                return await self._wait_for_flight(step)
+            case Command.SLEEP:
+                await self.clock.sleep(step.value)
+                return {"slept_s": step.value}
+            case Command.VIRTUALALARM:
+                return await self._virtual_alarm(step)
+            case Command.READ_SENSORS:
+                return await self._read_sensors(step)
+            case Command.CAMERA_TRIGGER:
+                return await self.controller.camera_trigger.set_distance(step.value)
+        raise StepFailed(f"step command {step.command!r} is not supported")
+
+    async def _wait_for_flight(self, step: Any) -> dict[str, Any]:
+        tolerance = Tolerance(
+            step.horizontal_tolerance_m or self.config.horizontal_tolerance_m,
+            step.vertical_tolerance_m or self.config.vertical_tolerance_m,
+        )
+        nav = self.controller.navigation
+        deadline = None if step.timeout_s is None else self.clock.now() + step.timeout_s
+        while not nav.goal_reached(tolerance):
+            if deadline is not None and self.clock.now() >= deadline:
+                raise StepFailed(
+                    f"goal not reached within {step.timeout_s:g} s "
+                    f"({nav.distance_to_goal_m():.1f} m away)"
+                )
+            state = self.controller.fc.state()
+            if not state.armed and not state.arming:
+                raise StepFailed("vehicle disarmed while waiting for flight")
+            await self.clock.sleep(self.config.wait_poll_s)
+        return {"distance_m": round(nav.distance_to_goal_m(), 3)}
+
+    async def _virtual_alarm(self, step: Any) -> dict[str, Any]:
+        fc = self.controller.fc
+        alarm = Alarm(
+            drone_id=self.controller.drone_id,
+            level=step.level,
+            message=step.message or f"virtual {step.level} alarm",
+            position=position_of(fc.position(), fc.home()),
+            mission_id=self.mission_id,
+            step_index=self.controller.step_index,
+            virtual=True,
+            vehicle_time_s=round(self.clock.now(), 3),
+        )
+        await self.client.publish(self.controller.topic(Channel.ALARMS), alarm, qos=QOS_COMMAND)
+        return {"alarm": str(step.level)}
+
+    async def _read_sensors(self, step: Any) -> dict[str, Any]:
+        if step.value:
+            await self.clock.sleep(step.value)
+        if self._sensor_names is None:  # asked once per mission, not at every waypoint
+            sensors = (await self.controller.gear(GearQuery.SENSORS)).get("sensors") or {}
+            self._sensor_names = _sensor_names(sensors)
+        readings = {}
+        for name in self._sensor_names:
+            with contextlib.suppress(CommandError):
+                readings[name] = (await self.controller.gear(GearQuery.READING, name)).get(
+                    "reading"
+                )
+        return {"readings": readings}
+
+    def _in_air(self) -> bool:
+        return self.controller.fc.state().in_air
+
+    async def _report(self, event: ProgressEvent, mission_id: str, **fields: Any) -> None:
+        fc = self.controller.fc
+        for key in ("step_started_s", "step_duration_s"):
+            if fields.get(key) is not None:
+                fields[key] = round(fields[key], 3)
+        progress = MissionProgress(
+            drone_id=self.controller.drone_id,
+            mission_id=mission_id,
+            event=event,
+            position=position_of(fc.position(), fc.home()),
+            vehicle_time_s=round(self.clock.now(), 3),
+            **fields,
+        )
+        await self.publish(progress)
+
+    async def publish(self, progress: MissionProgress) -> None:
+        """Publish a report (QoS 1) and keep it for :meth:`_replay`."""
+        if progress.mission_id:
+            kept = self.history.setdefault(progress.mission_id, [])
+            kept.append(progress)
+            self.history.move_to_end(progress.mission_id)
+            while len(self.history) > HISTORY_MISSIONS:
+                self.history.popitem(last=False)
+        await self.client.publish(self.controller.topic(Channel.MISSION), progress, qos=QOS_COMMAND)
+
+    async def _replay(self, mission_id: str, request_id: str | None) -> None:
+        """Re-send every report of ``mission_id``, in order; readers drop the duplicates."""
+        kept = list(self.history.get(mission_id, []))
+        if not kept:
+            await self._report(
+                ProgressEvent.REJECTED,
+                mission_id,
+                request_id=request_id,
+                ok=False,
+                error=f"no reports kept for mission {mission_id!r}",
+            )
+            return
+        for progress in kept:
+            await self.client.publish(
+                self.controller.topic(Channel.MISSION), progress, qos=QOS_COMMAND
+            )
+
+
+def _sensor_names(sensors: dict[str, Any]) -> list[str]:
+    """Sensor keys of a Listing 4.2 sensor list: nested groups ({"GAS": {"CO2": ...}}) flattened."""
+    names = []
+    for key, value in sensors.items():
+        if isinstance(value, dict):
+            names.extend(value.keys())
+        elif key.upper() != "CAMERA":
+            names.append(key)
+    return names
+
+
+def _ids_of(payload: bytes) -> tuple[str | None, str | None]:
+    try:
+        data = decode(payload)
+    except MessageError:
+        return None, None
+    if not isinstance(data, dict):
+        return None, None
+    rid, mid = data.get("request_id"), data.get("mission_id")
+    return (rid if isinstance(rid, str) else None, mid if isinstance(mid, str) else None)

@@ -1,0 +1,132 @@
+"""Navigation Processor (seed 3.3.2.2, 4.1.2.2): high-level moves into flight-controller targets.
+
+Navigation requests — absolute (``navigate``) or relative (``changeN``, ``changeE``,
+``altitude``) — become position targets for the Flight Controller Interface. The current goal is
+remembered so relative moves in a mission compose (two ``changeN 10`` = 20 m north of where the
+first began) and so ``wait_for_flight`` knows what to wait for (Algorithm 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dronefleet.drone.fc.base import FcError, FlightController
+from dronefleet.geo.ned import lla_to_ned, ned_to_lla
+from dronefleet.geo.types import LLA, NED
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """The cylinder of Figure 4.15: a goal is reached inside it."""
+
+    horizontal_m: float = 2.0
+    vertical_m: float = 2.0
+
+
+def reached(goal: NED, actual: NED, tolerance: Tolerance) -> bool:
+    """Algorithm 1: has the drone reached its goal (both criteria strictly inside tolerance)?"""
+    vertical_error = goal.d - actual.d
+    horizontal_error = (goal - actual).horizontal_m
+    return abs(vertical_error) < tolerance.vertical_m and horizontal_error < tolerance.horizontal_m
+
+
+class NavigationProcessor:
+    """Turns navigation requests into position targets and tracks the current goal."""
+
+    def __init__(
+        self,
+        fc: FlightController,
+        *,
+        takeoff_altitude_m: float = 10.0,
+        max_altitude_m: float = 120.0,
+        tolerance: Tolerance | None = None,
+    ) -> None:
+        self.fc = fc
+        self.takeoff_altitude_m = takeoff_altitude_m
+        self.max_altitude_m = max_altitude_m
+        self.tolerance = tolerance or Tolerance()
+        self.goal: LLA | None = None
+        self.landing = False  # after a land request, the goal is being on the ground
+
+    # -- requests ----------------------------------------------------------------------------
+    async def takeoff(self, altitude_m: float | None = None) -> LLA:
+        height = self.takeoff_altitude_m if altitude_m is None else altitude_m
+        self._check_height(height)
+        await self.fc.takeoff(height)
+        self.landing = False
+        here = self.fc.position()
+        self.goal = LLA(here.lat, here.lon, self.fc.home().alt_m + height)
+        return self.goal
+
+    async def navigate(self, lat: float, lon: float, altitude_m: float | None = None) -> LLA:
+        """Fly to ``lat``/``lon`` at ``altitude_m`` above home (default: keep the goal's height)."""
+        home = self.fc.home()
+        if altitude_m is None:
+            alt = self._base().alt_m
+        else:
+            self._check_height(altitude_m)
+            alt = home.alt_m + altitude_m
+        return await self._go(LLA(lat, lon, alt))
+
+    async def change(self, north_m: float = 0.0, east_m: float = 0.0, up_m: float = 0.0) -> LLA:
+        """Move relative to the current goal (or position when there is none)."""
+        home = self.fc.home()
+        base = lla_to_ned(self._base(), home)
+        target = ned_to_lla(NED(base.n + north_m, base.e + east_m, base.d - up_m), home)
+        self._check_height(target.alt_m - home.alt_m)
+        return await self._go(target)
+
+    async def land(self) -> None:
+        await self.fc.land()
+        self.goal = None
+        self.landing = True
+
+    async def hold(self) -> LLA:
+        here = self.fc.position()
+        await self.fc.hold()
+        self.goal = here
+        return here
+
+    # -- state -------------------------------------------------------------------------------
+    def goal_reached(self, tolerance: Tolerance | None = None) -> bool:
+        """Algorithm 1 against the current goal; after ``land`` the goal is being on the ground."""
+        if self.landing:
+            return not self.fc.state().in_air
+        if self.goal is None:
+            return True
+        home = self.fc.home()
+        return reached(
+            lla_to_ned(self.goal, home),
+            lla_to_ned(self.fc.position(), home),
+            tolerance or self.tolerance,
+        )
+
+    def distance_to_goal_m(self) -> float:
+        if self.goal is None:
+            return 0.0
+        home = self.fc.home()
+        return (lla_to_ned(self.goal, home) - lla_to_ned(self.fc.position(), home)).norm_m
+
+    # -- internals ---------------------------------------------------------------------------
+    def _base(self) -> LLA:
+        state = self.fc.state()
+        if self.goal is not None and (state.in_air or state.armed):
+            return self.goal
+        return self.fc.position()
+
+    def _check_height(self, height_m: float) -> None:
+        if height_m < 0:
+            raise FcError(f"target {height_m:.1f} m is below home; targets must be at or above it")
+        if height_m > self.max_altitude_m:
+            raise FcError(
+                f"target {height_m:.1f} m above home exceeds the {self.max_altitude_m:g} m limit"
+            )
+
+    async def _go(self, target: LLA) -> LLA:
+        state = self.fc.state()
+        if not state.armed:
+            raise FcError("vehicle is not armed: arm (and take off) before navigating")
+        await self.fc.goto(target)
+        self.goal = target
+        self.landing = False
+        return target

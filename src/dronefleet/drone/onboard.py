@@ -1,0 +1,283 @@
+"""Missions flown on board (issue 6): the Mission Worker hands a whole mission to the autopilot.
+
+The seed's Mission Worker runs every step from the companion computer, so a mission stops when the
+drone software or its link does (sections 3.3.3, 6.2). A MAVLink autopilot can fly a mission by
+itself: this module turns a step list into MISSION_ITEM_INTs, uploads it, starts AUTO and turns the
+autopilot's MISSION_CURRENT / MISSION_ITEM_REACHED back into the same per-step
+:class:`~dronefleet.messaging.missions.MissionProgress` reports on ``<id>/mission/out``.
+
+When: the flight controller has a ``mission`` facade (MAVLink), every step is one the autopilot can
+fly (:data:`FLYABLE`; ``arm`` only before the first flying step) and either the drone's config says
+``onboard_missions=True`` (default :data:`ONBOARD_MISSIONS`) or the mission has at least
+:data:`ONBOARD_MIN_STEPS` steps. ``MissionRequest`` is unchanged: the drone decides.
+
+Each report is built when the autopilot's event arrives (its vehicle time and position) and queued;
+publishing is QoS 1, and the broker client waits out broker outages, so reports made while the
+broker is down reach the ground, in order, when it is back — the vehicle meanwhile flies on.
+
+Step → item: ``takeoff`` NAV_TAKEOFF, ``navigate`` NAV_WAYPOINT (done when it becomes current),
+``wait_for_flight`` (done when the last waypoint is reached), ``sleep`` NAV_LOITER_TIME where the
+vehicle is, ``takepic`` a zero-second loiter followed by DO_DIGICAM_CONTROL (DO items run when the
+NAV item before them starts), ``land`` NAV_LAND. A last loiter is followed by a hold waypoint so its
+end is seen as the next item becoming current.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from dronefleet.drone.fc.base import FcError, FlightMode
+from dronefleet.drone.state import position_of
+from dronefleet.messaging.commands import Command
+from dronefleet.messaging.missions import MissionProgress, ProgressEvent
+
+if TYPE_CHECKING:
+    from dronefleet.drone.mission_worker import MissionWorker
+
+log = logging.getLogger(__name__)
+
+#: Fly every eligible mission on board unless the drone's config says otherwise.
+ONBOARD_MISSIONS = False
+#: Missions with at least this many steps go on board even without the flag (None: never).
+ONBOARD_MIN_STEPS: int | None = None
+#: Step commands the autopilot can fly.
+FLYABLE = frozenset(
+    {
+        Command.ARM,
+        Command.TAKEOFF,
+        Command.NAVIGATE,
+        Command.WAIT_FOR_FLIGHT,
+        Command.SLEEP,
+        Command.TAKEPIC,
+        Command.LAND,
+    }
+)
+#: Vehicle seconds out of AUTO (or disarmed) before the mission counts as abandoned.
+LEFT_AUTO_GRACE_S = 3.0
+
+
+@dataclass(frozen=True, slots=True)
+class OnboardPlan:
+    """The items to upload, the steps run from here first (``arm``) and, for every other step,
+    the progress level at which it is done (2·index when its item becomes current, 2·index + 1
+    when reached; index in the uploaded list)."""
+
+    items: list[Any]
+    prefix: list[tuple[int, Any]]
+    thresholds: list[tuple[int, Any, int]]  # (step index, step, level)
+
+
+def wanted(worker: MissionWorker, steps: list[tuple[int, Any]]) -> bool:
+    fc = worker.controller.fc
+    if getattr(fc, "mission", None) is None or not steps:
+        return False
+    if getattr(worker.config, "onboard_missions", ONBOARD_MISSIONS):
+        return True
+    return ONBOARD_MIN_STEPS is not None and len(steps) >= ONBOARD_MIN_STEPS
+
+
+def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | None:
+    """The on-board form of ``steps``, or None when some step cannot be flown on board."""
+    from dronefleet.drone.fc.mavlink import items as mi
+
+    if any(step.command not in FLYABLE for _, step in steps):
+        return None
+    fc, config = worker.controller.fc, worker.config
+    state = fc.state()
+    here, home = fc.position(), fc.home()
+    alt_m = here.alt_m - home.alt_m if state.in_air else config.takeoff_altitude_m
+    goal = (here.lat, here.lon)
+    prefix: list[tuple[int, Any]] = []
+    items: list[Any] = []
+    thresholds: list[tuple[int, Any, int]] = []
+    for index, step in steps:
+        command = step.command
+        if command is Command.ARM:
+            if items:
+                return None  # arming between flying steps: leave it to the companion computer
+            prefix.append((index, step))
+            continue
+        if command is Command.TAKEOFF:
+            alt_m = step.value if step.value is not None else config.takeoff_altitude_m
+            items.append(mi.takeoff(alt_m))
+            level = 2 * (len(items) - 1)
+        elif command is Command.NAVIGATE:
+            if step.altitude_delta is not None:
+                alt_m = step.altitude_delta
+            goal = (step.lat, step.lon)
+            items.append(mi.waypoint(step.lat, step.lon, alt_m))
+            level = 2 * (len(items) - 1)
+        elif command is Command.WAIT_FOR_FLIGHT:
+            level = 2 * (len(items) - 1) + 1 if items else 0
+        elif command is Command.SLEEP:
+            items.append(mi.loiter_time(*goal, alt_m, float(step.value or 0.0)))
+            level = 2 * len(items)  # done when the next item starts
+        elif command is Command.TAKEPIC:
+            items.append(mi.loiter_time(*goal, alt_m, 0.0))
+            level = 2 * len(items)
+            items.append(mi.take_photo())
+        else:  # LAND
+            items.append(mi.land())
+            level = 2 * (len(items) - 1)
+        thresholds.append((index, step, level))
+    if not items:
+        return None
+    last = max(level for *_, level in thresholds) if thresholds else 0
+    if last >= 2 * len(items) - 1 or not items[-1].is_nav:
+        items.append(mi.waypoint(*goal, alt_m))  # its start marks the end of what came before
+    return OnboardPlan(items, prefix, thresholds)
+
+
+async def fly(
+    worker: MissionWorker, mission_id: str, steps: list[tuple[int, Any]], count: int
+) -> bool:
+    """Fly ``steps`` on board, reporting each; False (nothing done) when they cannot be."""
+    if not wanted(worker, steps) or (onboard := plan(worker, steps)) is None:
+        return False
+    fc = worker.controller.fc
+    try:
+        await fc.mission.upload(onboard.items, home=fc.home())
+    except FcError as exc:
+        log.warning("%s: on-board upload failed, flying from here: %s", worker.config.drone_id, exc)
+        return False
+    log.info("%s: mission %s flies on board (%d items)", fc, mission_id, len(onboard.items))
+    outbox: asyncio.Queue[MissionProgress | None] = asyncio.Queue()
+    publisher = asyncio.create_task(_publish(worker, outbox), name=f"onboard-out:{mission_id}")
+    try:
+        await _run(worker, fc, onboard, mission_id, count, outbox)
+    except asyncio.CancelledError:
+        with contextlib.suppress(Exception):
+            if fc.state().mode is FlightMode.MISSION:
+                await fc.hold()  # stop the autopilot's mission too
+        raise
+    finally:
+        outbox.put_nowait(None)
+        with contextlib.suppress(Exception):
+            await asyncio.shield(publisher)
+    return True
+
+
+async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, outbox) -> None:
+    clock = worker.clock
+    started = clock.now()
+
+    def report(event: ProgressEvent, **fields: Any) -> None:
+        for key in ("step_started_s", "step_duration_s"):
+            if fields.get(key) is not None:
+                fields[key] = round(fields[key], 3)
+        outbox.put_nowait(
+            MissionProgress(
+                drone_id=worker.config.drone_id,
+                mission_id=mission_id,
+                event=event,
+                position=position_of(fc.position(), fc.home()),
+                vehicle_time_s=round(clock.now(), 3),
+                **fields,
+            )
+        )
+
+    for index, step in onboard.prefix:  # arming: from the companion computer, as usual
+        worker.controller.step_index = index
+        began = clock.now()
+        try:
+            result = await worker.execute_step(step)
+        except Exception as exc:
+            report(
+                ProgressEvent.FAILED,
+                step_index=index,
+                step_count=count,
+                command=str(step.command),
+                ok=False,
+                error=str(exc),
+            )
+            return
+        report(
+            ProgressEvent.STEP,
+            step_index=index,
+            step_count=count,
+            command=str(step.command),
+            step_started_s=began,
+            step_duration_s=clock.now() - began,
+            result=result or None,
+        )
+    pending = list(onboard.thresholds)
+    level = -1
+    events: asyncio.Queue[Any] = asyncio.Queue()
+    fc.mission.current_seq = None  # what was current before the upload says nothing now
+    pump = asyncio.create_task(_pump(fc, events), name=f"onboard-progress:{mission_id}")
+    began = clock.now()
+    try:
+        await fc.mission.start(0)
+        left_since: float | None = None
+        while pending:
+            with contextlib.suppress(TimeoutError):
+                event = await asyncio.wait_for(events.get(), 0.25)
+                level = max(level, 2 * event.index + (1 if event.kind == "reached" else 0))
+            while pending and pending[0][2] <= level:
+                index, step, _ = pending.pop(0)
+                worker.controller.step_index = index
+                now = clock.now()
+                report(
+                    ProgressEvent.STEP,
+                    step_index=index,
+                    step_count=count,
+                    command=str(step.command),
+                    step_started_s=began,
+                    step_duration_s=now - began,
+                    result={"on_board": True},
+                )
+                began = now
+            state = fc.state()
+            if pending and (state.mode is not FlightMode.MISSION or not state.armed):
+                left_since = left_since if left_since is not None else clock.now()
+                if clock.now() - left_since > LEFT_AUTO_GRACE_S:
+                    index, step, _ = pending[0]
+                    reason = (
+                        f"the autopilot left the mission (mode {state.mode}, armed: {state.armed})"
+                    )
+                    report(
+                        ProgressEvent.FAILED,
+                        step_index=index,
+                        step_count=count,
+                        command=str(step.command),
+                        ok=False,
+                        error=reason,
+                    )
+                    return
+            else:
+                left_since = None
+    except FcError as exc:
+        index = pending[0][0] if pending else None
+        report(ProgressEvent.FAILED, step_index=index, step_count=count, ok=False, error=str(exc))
+        return
+    finally:
+        pump.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await pump
+    last = onboard.thresholds[-1][0] if onboard.thresholds else onboard.prefix[-1][0]
+    report(
+        ProgressEvent.COMPLETED,
+        step_count=count,
+        step_started_s=started,
+        step_duration_s=clock.now() - started,
+        step_index=last,
+        result={"on_board": True},
+    )
+
+
+async def _pump(fc: Any, events: asyncio.Queue[Any]) -> None:
+    async for event in fc.mission.progress():
+        events.put_nowait(event)
+
+
+async def _publish(worker: MissionWorker, outbox: asyncio.Queue[MissionProgress | None]) -> None:
+    """Reports in order; each waits for the broker if it is down (QoS 1)."""
+    while (progress := await outbox.get()) is not None:
+        try:
+            await worker.publish(progress)  # kept for replay, QoS 1
+        except Exception:
+            log.exception("%s: progress report lost", worker.config.drone_id)

@@ -1,0 +1,1 @@
+"""The seed's four experiments (chapter 5) as runnable scenarios with reports."""

@@ -1,0 +1,58 @@
+"""``dronefleet experiment NAME [--speedup N] [--json] [--baseline seed] [--fc BACKEND]``:
+the seed's chapter 5, on in-process, MAVLink, UAVTalk or mixed flight controllers."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import sys
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("experiment", help="run one of the seed's four experiments (chapter 5)")
+    p.add_argument("name", choices=["panic", "survey", "replacement", "collab"])
+    p.add_argument("--speedup", type=float, default=10.0, help="vehicle seconds per wall second")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--baseline",
+        choices=["seed"],
+        help="also run the seed's own strategy in the same simulator, side by side",
+    )
+    p.add_argument("--strategy", choices=["ours", "seed"], default="ours")
+    p.add_argument(
+        "--fc",
+        choices=["sim", "mavlink", "uavtalk", "mixed"],
+        default="sim",
+        help="flight controllers: in-process, simulated vehicles over MAVLink UDP or UAVTalk "
+        "TCP, or a mix (all in one simulated world)",
+    )
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from dronefleet.experiments.scenarios import run
+
+    strategies = [args.strategy] + (["seed"] if args.baseline and args.strategy != "seed" else [])
+    results = []
+    for strategy in strategies:
+        if not args.json:
+            print(
+                f"running {args.name} ({strategy}, fc {args.fc}) at {args.speedup:g}x ...",
+                file=sys.stderr,
+            )
+        results.append(
+            asyncio.run(run(args.name, strategy=strategy, speedup=args.speedup, fc=args.fc))
+        )
+    if args.json:
+        data = results[0].as_json()
+        if len(results) > 1:
+            data["baseline"] = results[1].as_json()
+            data["ratio_to_baseline"] = round(results[0].total_s / results[1].total_s, 3)
+        print(json.dumps(data))
+    else:
+        for result in results:
+            print(result.table())
+        if len(results) > 1:
+            print(f"ours / seed baseline: {results[0].total_s / results[1].total_s:.2f}")
+    return 0

@@ -1,0 +1,106 @@
+"""``dronefleet ground`` (all ground services) and ``dronefleet bridge-config`` (Listing 4.3)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import signal
+import sys
+from pathlib import Path
+
+
+def _host_port(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) < 65536:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    g = sub.add_parser("ground", help="run the ground services (identifier, manager, telemetry)")
+    g.add_argument("--broker", default="mqtt://127.0.0.1:1883", help="ground broker URL")
+    g.add_argument(
+        "--store",
+        default="sqlite:///dronefleet-telemetry.db",
+        help="telemetry store: sqlite:///PATH or influxdb://HOST:PORT/DB",
+    )
+    g.add_argument("--state", type=Path, default=Path("dronefleet-ground.db"), help="state DB")
+    g.add_argument("--http", type=_host_port, default=("127.0.0.1", 8080), help="HOST:PORT")
+    g.add_argument("--token", help="operator API token to accept (default: one is made)")
+    g.add_argument("--admin-token", help="admin API token to accept")
+    g.add_argument("--command-timeout", type=float, default=30.0, help="seconds per command")
+    g.set_defaults(func=run_ground)
+
+    b = sub.add_parser(
+        "bridge-config", help="print a drone's Mosquitto bridge config (Listing 4.3)"
+    )
+    b.add_argument("--drone-id", required=True)
+    b.add_argument("--ground", type=_host_port, required=True, help="ground broker HOST:PORT")
+    b.add_argument("--username")
+    b.add_argument("--password")
+    b.add_argument("--connection", default="groundRelay", help="bridge connection name")
+    b.add_argument("--listener", type=_host_port, help="also write a listener: a whole config")
+    b.set_defaults(func=run_bridge_config)
+
+
+def run_bridge_config(args: argparse.Namespace) -> int:
+    from dronefleet.messaging.bridge import bridge_config
+
+    try:
+        text = bridge_config(
+            args.drone_id,
+            args.ground[0],
+            args.ground[1],
+            username=args.username,
+            password=args.password,
+            connection=args.connection,
+            listener=args.listener,
+        )
+    except ValueError as exc:
+        print(f"dronefleet bridge-config: {exc}", file=sys.stderr)
+        return 2
+    sys.stdout.write(text)
+    return 0
+
+
+def run_ground(args: argparse.Namespace) -> int:
+    return asyncio.run(_ground(args))
+
+
+async def _ground(args: argparse.Namespace) -> int:
+    from dronefleet.ground.services import GroundServices
+    from dronefleet.messaging.client import BrokerUnavailable
+
+    services = GroundServices(
+        args.broker,
+        store_url=args.store,
+        state_path=args.state,
+        http_host=args.http[0],
+        http_port=args.http[1],
+        token=args.token,
+        admin_token=args.admin_token,
+        command_timeout_s=args.command_timeout,
+    )
+    try:
+        await services.start()
+    except (BrokerUnavailable, OSError, ValueError) as exc:
+        print(f"dronefleet ground: {exc}", file=sys.stderr)
+        return 1
+    print(
+        f"ground services on {services.http_url} (API docs: {services.http_url}/docs)", flush=True
+    )
+    if services.operator_token:
+        print(f"operator token: {services.operator_token}", flush=True)
+    if services.admin_token and not args.admin_token:
+        print(f"admin token: {services.admin_token}", flush=True)
+    if not services.operator_token:
+        print("tokens kept from the state store (pass --token to set one)", flush=True)
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError):
+            loop.add_signal_handler(sig, stop.set)
+    await stop.wait()
+    await services.stop()
+    return 0

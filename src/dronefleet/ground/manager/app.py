@@ -1,0 +1,34 @@
+"""The Drone Manager's FastAPI application: routes, error shapes, OpenAPI docs at ``/docs``."""
+
+from fastapi import FastAPI
+
+from dronefleet import __version__
+from dronefleet.ground.manager import admin, control, drones, errors, stream, telemetry, web
+from dronefleet.ground.manager.context import ManagerContext
+
+DESCRIPTION = """
+The ground side of dronefleet: the Drone Manager (seed 4.2.3). Send commands to drones, start and
+stop missions, read the fleet the Drone Identifier keeps, query stored telemetry, and follow it all
+live on the `/api/v1/stream` WebSocket. Authenticate with `Authorization: Bearer <token>`.
+"""
+
+
+def create_app(ctx: ManagerContext) -> FastAPI:
+    app = FastAPI(
+        title="dronefleet ground",
+        version=__version__,
+        description=DESCRIPTION,
+        redirect_slashes=False,  # a wrong path is a 404 with a reason, not a redirect
+    )
+    app.state.ctx = ctx
+    errors.install(app)
+    from dronefleet.ground.planner import api as planner_api
+
+    for module in (drones, control, telemetry, admin, stream, planner_api, web):
+        app.include_router(module.router)
+
+    @app.get("/api/v1/health", tags=["admin"], summary="Liveness of the ground services")
+    async def health() -> dict[str, object]:
+        return {"ok": True, "version": __version__}
+
+    return app

@@ -1,0 +1,98 @@
+"""API tokens with roles: viewer (read), operator (commands, missions), admin (tokens, config).
+
+Tokens are random strings handed out once; the state store keeps only their SHA-256 (a token is
+32 random bytes, so a plain hash is enough). A request carries its token as
+``Authorization: Bearer <token>``, ``X-API-Token: <token>`` or ``?token=`` (for WebSockets and
+the seed's ``/control`` links). Missing or unknown token: 401; a role too low: 403.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import secrets
+from dataclasses import dataclass
+from enum import IntEnum
+
+from starlette.requests import HTTPConnection
+
+from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.state import StateStore
+
+
+class Role(IntEnum):
+    VIEWER = 1
+    OPERATOR = 2
+    ADMIN = 3
+
+    @classmethod
+    def parse(cls, name: str) -> Role:
+        try:
+            return cls[name.upper()]
+        except KeyError as exc:
+            raise ValueError(f"unknown role {name!r}; use viewer, operator or admin") from exc
+
+    @property
+    def label(self) -> str:
+        return self.name.lower()
+
+
+@dataclass(frozen=True)
+class Principal:
+    name: str
+    role: Role
+
+
+def new_token() -> str:
+    return secrets.token_urlsafe(32)
+
+
+def hash_token(token: str) -> str:
+    return hashlib.sha256(token.encode()).hexdigest()
+
+
+def token_from(conn: HTTPConnection) -> str | None:
+    auth = conn.headers.get("authorization", "")
+    if auth.lower().startswith("bearer "):
+        return auth[7:].strip() or None
+    return conn.headers.get("x-api-token") or conn.query_params.get("token") or None
+
+
+class TokenBook:
+    """Tokens in the state store, with an in-memory cache of the ones seen."""
+
+    def __init__(self, state: StateStore) -> None:
+        self.state = state
+        self._cache: dict[str, Principal] = {}
+
+    async def issue(self, name: str, role: Role, token: str | None = None) -> str:
+        """Create (or replace) the token called ``name``; return the token itself."""
+        token = token or new_token()
+        await self.state.add_token(hash_token(token), name, role.label)
+        self._cache.clear()
+        return token
+
+    async def revoke(self, name: str) -> bool:
+        self._cache.clear()
+        return await self.state.delete_token(name)
+
+    async def has_any(self) -> bool:
+        return bool(await self.state.list_tokens())
+
+    async def principal(self, conn: HTTPConnection, need: Role) -> Principal:
+        token = token_from(conn)
+        if not token:
+            raise ApiError(401, "missing API token: send 'Authorization: Bearer <token>'")
+        digest = hash_token(token)
+        principal = self._cache.get(digest)
+        if principal is None:
+            found = await self.state.find_token(digest)
+            if found is None:
+                raise ApiError(401, "unknown API token")
+            principal = Principal(found[0], Role.parse(found[1]))
+            self._cache[digest] = principal
+        if principal.role < need:
+            raise ApiError(
+                403,
+                f"token {principal.name!r} is a {principal.role.label}; this needs {need.label}",
+            )
+        return principal

@@ -1,0 +1,62 @@
+"""What every Drone Manager route needs, gathered once and kept on ``app.state.ctx``."""
+
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from typing import Annotated, Any
+
+from fastapi import Depends, Request
+from starlette.requests import HTTPConnection
+
+from dronefleet.ground.manager.auth import Principal, Role, TokenBook
+from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.gateway import DroneGateway
+from dronefleet.ground.state import StateStore
+from dronefleet.ground.telemetry.store import TelemetryStore
+
+
+@dataclass
+class ManagerContext:
+    state: StateStore
+    tokens: TokenBook
+    gateway: DroneGateway
+    telemetry: TelemetryStore
+    hub: Any  # StreamHub (kept loose to avoid an import cycle)
+
+
+def ctx_of(conn: HTTPConnection) -> ManagerContext:
+    return conn.app.state.ctx
+
+
+def _needs(role: Role) -> Callable[[Request], Awaitable[Principal]]:
+    async def dependency(request: Request) -> Principal:
+        return await ctx_of(request).tokens.principal(request, role)
+
+    return dependency
+
+
+viewer = _needs(Role.VIEWER)
+operator = _needs(Role.OPERATOR)
+admin = _needs(Role.ADMIN)
+#: Route parameter types: ``who: Operator`` checks the token and gives the caller.
+Viewer = Annotated[Principal, Depends(viewer)]
+Operator = Annotated[Principal, Depends(operator)]
+Admin = Annotated[Principal, Depends(admin)]
+
+
+async def audited(
+    request: Request,
+    who: Principal,
+    drone_id: str | None,
+    command: str,
+    params: dict[str, Any],
+    call: Awaitable[Any],
+) -> Any:
+    """Await ``call`` and write the outcome, good or bad, to the audit log."""
+    gateway = ctx_of(request).gateway
+    try:
+        answer = await call
+    except ApiError as exc:
+        await gateway.audit(who, drone_id, command, params, exc.status, exc.body())
+        raise
+    await gateway.audit(who, drone_id, command, params, 200, answer)
+    return answer

@@ -1,0 +1,203 @@
+"""Resource-style drone routes: the fleet, one drone, its gear and objects, commands, missions.
+
+``POST /api/v1/drones/{id}/commands/{command}`` has one route per control command of seed
+Table 4.2, each with its own typed body (the messaging model's parameters), so the OpenAPI docs
+show exactly what each command takes.
+"""
+
+import inspect
+import secrets
+import typing
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Body, Path, Query, Request
+from pydantic import BaseModel, ConfigDict, Field, create_model
+
+from dronefleet.ground.manager.auth import Principal
+from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
+from dronefleet.ground.manager.errors import ApiError
+from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.commands import CONTROL_COMMANDS, Command, ControlRequest, parse_control
+from dronefleet.messaging.gear import GearQuery, GearRequest
+from dronefleet.messaging.missions import MissionAction, MissionRequest, decode_steps
+
+router = APIRouter(prefix="/api/v1/drones", tags=["drones"])
+
+DroneId = Annotated[str, Path(min_length=1, max_length=64, description="drone identifier")]
+Timeout = Annotated[
+    float | None, Query(gt=0, le=300, description="seconds to wait for the drone's answer")
+]
+_HIDDEN = {"command", "request_id", "sender"}
+
+
+@router.get("", summary="List every drone the Drone Identifier knows (seed: discover)")
+async def list_drones(request: Request, who: Viewer) -> list[dict[str, Any]]:
+    return await ctx_of(request).gateway.fleet()
+
+
+@router.get("/{drone_id}", summary="One drone: position, battery, state, gear, liveness")
+async def get_drone(request: Request, who: Viewer, drone_id: DroneId) -> dict[str, Any]:
+    return await ctx_of(request).gateway.drone(drone_id)
+
+
+@router.get("/{drone_id}/gear", summary="Specifications and sensors (seed: getgear)")
+async def get_gear(
+    request: Request, who: Viewer, drone_id: DroneId, timeout_s: Timeout = None
+) -> dict[str, Any]:
+    gateway = ctx_of(request).gateway
+    record = await gateway.drone(drone_id)
+    gear = {"drone_id": drone_id, "specs": record.get("specs"), "sensors": record.get("sensors")}
+    for query in (GearQuery.SPECS, GearQuery.SENSORS):
+        if gear[query.value] is None:  # not heard yet: ask the Gear Manager now
+            answer = await gateway.gear(drone_id, GearRequest(query=query), timeout_s)
+            gear[query.value] = answer.get(query.value)
+    return gear
+
+
+@router.get("/{drone_id}/objects/{name}", summary="Request a flight-controller object")
+async def get_object(
+    request: Request,
+    who: Viewer,
+    drone_id: DroneId,
+    name: Annotated[str, Path(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")],
+    timeout_s: Timeout = None,
+) -> dict[str, Any]:
+    params = {"command": Command.OBJREQUEST.value, "value": name}
+    return await run_control(request, who, drone_id, params, timeout_s)
+
+
+async def run_control(
+    request: Request,
+    who: Principal,
+    drone_id: str,
+    params: dict[str, Any],
+    timeout_s: float | None,
+) -> dict[str, Any]:
+    """Validate a control request, send it, wait for the answer; audited either way."""
+    gateway = ctx_of(request).gateway
+
+    async def call() -> dict[str, Any]:
+        try:
+            parsed = parse_control(params)
+        except MessageError as exc:
+            raise ApiError(422, str(exc)) from exc
+        return await gateway.control(drone_id, parsed, timeout_s)
+
+    command = str(params.get("command"))
+    return await audited(request, who, drone_id, command, params, call())
+
+
+# -- one route per control command ---------------------------------------------------------------
+def _body_model(model: type[BaseModel]) -> type[BaseModel]:
+    fields: dict[str, Any] = {
+        name: (info.annotation, info)
+        for name, info in model.model_fields.items()
+        if name not in _HIDDEN
+    }
+    return create_model(  # type: ignore[call-overload]
+        f"{model.__name__}Body", __config__=ConfigDict(extra="forbid"), **fields
+    )
+
+
+def _add_command_route(command: Command, body_model: type[BaseModel], doc: str) -> None:
+    required = any(f.is_required() for f in body_model.model_fields.values())
+
+    async def handler(
+        *,
+        request: Request,
+        who: Operator,
+        drone_id: DroneId,
+        body: Any = None,
+        timeout_s: Timeout = None,
+    ) -> dict[str, Any]:
+        params = {"command": command.value}
+        if body is not None:
+            params.update(body.model_dump(exclude_none=True))
+        return await run_control(request, who, drone_id, params, timeout_s)
+
+    # The body's type is only known here: give FastAPI a signature that says it.
+    sig = inspect.signature(handler)
+    body_param = sig.parameters["body"].replace(
+        annotation=body_model if required else body_model | None,
+        default=Body(...) if required else Body(None),
+    )
+    handler.__signature__ = sig.replace(  # type: ignore[attr-defined]
+        parameters=[body_param if p.name == "body" else p for p in sig.parameters.values()]
+    )
+    router.post(
+        f"/{{drone_id}}/commands/{command.value}",
+        summary=f"Command: {command.value}",
+        description=doc,
+        name=f"command_{command.value}",
+    )(handler)
+
+
+for _model in typing.get_args(typing.get_args(ControlRequest)[0]):
+    _cmd = Command(typing.get_args(_model.model_fields["command"].annotation)[0])
+    if _cmd in CONTROL_COMMANDS:
+        _add_command_route(_cmd, _body_model(_model), (_model.__doc__ or "").strip())
+
+
+@router.post("/{drone_id}/commands/{command}", include_in_schema=False)
+async def unknown_command(who: Operator, drone_id: str, command: str) -> None:
+    known = ", ".join(sorted(CONTROL_COMMANDS))
+    raise ApiError(404, f"unknown command {command!r}; known: {known}")
+
+
+# -- missions ----------------------------------------------------------------------------------
+class MissionStart(BaseModel):
+    """A mission for one drone: the seed's base64 ``mission`` or plain JSON ``steps``."""
+
+    model_config = ConfigDict(extra="forbid")
+    mission_id: str = Field(default="", max_length=128, pattern=r"^[A-Za-z0-9_.\-]*$")
+    mission: str | None = Field(default=None, description="base64 of a JSON list of steps")
+    steps: list[dict[str, Any]] | None = Field(default=None, max_length=10_000)
+    start_index: int = Field(default=0, ge=0)
+
+
+async def run_mission(
+    request: Request,
+    who: Principal,
+    drone_id: str,
+    message: MissionRequest,
+    timeout_s: float | None,
+) -> dict[str, Any]:
+    gateway = ctx_of(request).gateway
+
+    async def call() -> dict[str, Any]:
+        if message.action is MissionAction.START:
+            try:
+                decode_steps(message)
+            except MessageError as exc:
+                raise ApiError(422, str(exc)) from exc
+        return await gateway.mission(drone_id, message, timeout_s)
+
+    params = message.model_dump(mode="json", exclude_none=True)
+    command = "startchain" if message.action is MissionAction.START else "stopchain"
+    return await audited(request, who, drone_id, command, params, call())
+
+
+@router.post("/{drone_id}/mission", summary="Start a mission (seed: startchain)")
+async def start_mission(
+    request: Request,
+    who: Operator,
+    drone_id: DroneId,
+    body: MissionStart,
+    timeout_s: Timeout = None,
+) -> dict[str, Any]:
+    mission_id = body.mission_id or f"{drone_id}-{secrets.token_hex(4)}"
+    message = MissionRequest(
+        mission_id=mission_id, mission=body.mission, steps=body.steps, start_index=body.start_index
+    )
+    return await run_mission(request, who, drone_id, message, timeout_s)
+
+
+@router.post("/{drone_id}/mission/stop", summary="Stop the running mission (seed: stopchain)")
+async def stop_mission(
+    request: Request,
+    who: Operator,
+    drone_id: DroneId,
+    timeout_s: Timeout = None,
+) -> dict[str, Any]:
+    message = MissionRequest(action=MissionAction.STOP)
+    return await run_mission(request, who, drone_id, message, timeout_s)

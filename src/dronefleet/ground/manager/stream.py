@@ -1,0 +1,134 @@
+"""``/api/v1/stream``: live heartbeats, telemetry, mission progress, alarms and fleet changes.
+
+One :class:`StreamHub` per server listens on the ground broker and fans every message out to the
+connected WebSockets as ``{"kind", "drone_id", "topic", "data"}``. A client may narrow the stream
+with ``?drone=ID`` and ``?kinds=heartbeat,telemetry,progress,alarm,fleet``. A slow client loses
+its oldest messages rather than holding up the others.
+"""
+
+import asyncio
+import contextlib
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+
+from dronefleet.ground.identifier import EVENTS_TOPIC
+from dronefleet.ground.manager.auth import Role
+from dronefleet.ground.manager.context import ctx_of
+from dronefleet.ground.manager.errors import ApiError
+from dronefleet.messaging.client import QOS_STREAM, BrokerClient
+from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.topics import Channel, any_drone
+
+log = logging.getLogger(__name__)
+
+KINDS = {
+    Channel.HEARTBEATS: "heartbeat",
+    Channel.TELEMETRY: "telemetry",
+    Channel.MISSION: "progress",
+    Channel.ALARMS: "alarm",
+}
+ALL_KINDS = frozenset({*KINDS.values(), "fleet", "mission"})
+#: The Mission Planner announces mission changes (state, handovers, extensions) here.
+PLANNER_EVENTS_TOPIC = "ground/planner/events"
+QUEUE_SIZE = 1_000
+
+
+@dataclass(eq=False)
+class _Listener:
+    drone: str | None
+    kinds: frozenset[str]
+    queue: asyncio.Queue[dict[str, Any]] = field(default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
+
+    def offer(self, message: dict[str, Any]) -> None:
+        if message["kind"] not in self.kinds:
+            return
+        if self.drone is not None and message.get("drone_id") != self.drone:
+            return
+        if self.queue.full():
+            with contextlib.suppress(asyncio.QueueEmpty):
+                self.queue.get_nowait()
+        self.queue.put_nowait(message)
+
+
+class StreamHub:
+    def __init__(self, broker_url: Any, *, client_id: str) -> None:
+        self.client = BrokerClient(broker_url, client_id)
+        self.listeners: set[_Listener] = set()
+
+    async def start(self) -> "StreamHub":
+        for channel in KINDS:
+            qos = QOS_STREAM if channel in {Channel.HEARTBEATS, Channel.TELEMETRY} else 1
+            await self.client.subscribe(any_drone(channel), self._on_message, qos=qos)
+        await self.client.subscribe(EVENTS_TOPIC, self._on_message, qos=QOS_STREAM)
+        await self.client.subscribe(PLANNER_EVENTS_TOPIC, self._on_message, qos=QOS_STREAM)
+        await self.client.start()
+        return self
+
+    async def stop(self) -> None:
+        await self.client.stop()
+
+    async def _on_message(self, topic_name: str, payload: bytes) -> None:
+        if not self.listeners:
+            return
+        try:
+            data = decode_object(payload)
+        except MessageError:
+            return
+        parts = topic_name.split("/")
+        if topic_name == EVENTS_TOPIC:
+            kind, drone_id = "fleet", data.get("drone_id")
+        elif topic_name == PLANNER_EVENTS_TOPIC:
+            kind, drone_id = "mission", data.get("drone_id")
+        else:
+            kind, drone_id = KINDS.get(Channel(parts[1]), "other"), parts[0]
+        message = {"kind": kind, "drone_id": drone_id, "topic": topic_name, "data": data}
+        for listener in list(self.listeners):
+            listener.offer(message)
+
+
+router = APIRouter(tags=["stream"])
+
+
+@router.websocket("/api/v1/stream")
+async def stream(websocket: WebSocket) -> None:
+    ctx = ctx_of(websocket)
+    try:
+        await ctx.tokens.principal(websocket, Role.VIEWER)
+    except ApiError as exc:
+        await websocket.close(code=4401 if exc.status == 401 else 4403, reason=exc.detail)
+        return
+    kinds_param = websocket.query_params.get("kinds")
+    kinds = frozenset(k.strip() for k in kinds_param.split(",")) if kinds_param else ALL_KINDS
+    if not kinds <= ALL_KINDS:
+        bad = ", ".join(sorted(kinds - ALL_KINDS))
+        await websocket.close(code=4422, reason=f"unknown kinds: {bad}")
+        return
+    await websocket.accept()
+    listener = _Listener(websocket.query_params.get("drone"), kinds)
+    hub: StreamHub = ctx.hub
+    hub.listeners.add(listener)
+
+    async def drain_client() -> None:  # notices the client leaving
+        with contextlib.suppress(WebSocketDisconnect):
+            while True:
+                await websocket.receive_text()
+
+    reader = asyncio.create_task(drain_client())
+    try:
+        while not reader.done():
+            getter = asyncio.ensure_future(listener.queue.get())
+            done, _ = await asyncio.wait({getter, reader}, return_when=asyncio.FIRST_COMPLETED)
+            if getter not in done:
+                getter.cancel()
+                break
+            await websocket.send_json(getter.result())
+    except (WebSocketDisconnect, RuntimeError):
+        pass
+    finally:
+        hub.listeners.discard(listener)
+        reader.cancel()
+        with contextlib.suppress(asyncio.CancelledError, Exception):
+            await reader

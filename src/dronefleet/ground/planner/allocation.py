@@ -1,0 +1,321 @@
+"""Sharing a route among drones so that the work ends as early as possible (seed 4.2.4, 5.4).
+
+The seed's Mission Planner gave each drone an equal share of the waypoints, in route order
+(:func:`seed_equal_split`, kept for the baseline). Here each drone's finish time is costed —
+preparation (arming, climb) when on the ground, transit to its first waypoint, then its work
+(legs and holds, from :mod:`.estimate`) — and the split minimises the latest finish (makespan).
+
+Shares are contiguous chunks of the boustrophedon route, so drones work in separate regions.
+The makespan is found by bisection: for a candidate time ``T`` and an order of drones along the
+route, the chunk starts reachable by the first ``m`` drones within ``T`` form a set that grows by
+intervals (numpy); every order is tried (drones are few: 5 drones, 120 orders).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dronefleet.geo.ned import lla_to_ned
+from dronefleet.geo.types import LLA
+from dronefleet.ground.planner.coverage.plan import CoveragePlan
+from dronefleet.ground.planner.estimate import DEFAULT_MODEL, VehicleModel, estimate
+
+_PRECISION_S = 0.02
+#: Current during preparation and transit, as a multiple of hover (a conservative average of
+#: climbing and fast forward flight) for the battery budget of a share.
+_TRANSIT_CURRENT = 1.3
+
+
+@dataclass(frozen=True)
+class DroneSlot:
+    """A drone that can take a share: where it is, whether it flies, its battery and home."""
+
+    drone_id: str
+    position: LLA
+    airborne: bool
+    battery_pct: float = 100.0
+    home: LLA | None = None  # default: below ``position`` (airborne) or at it (on the ground)
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """A drone's share: contiguous waypoint indices and when it should be done (s from now)."""
+
+    drone_id: str
+    waypoint_indices: list[int]
+    estimated_finish_s: float
+    altitude_offset_m: float = 0.0
+    start_s: float = 0.0  # preparation and transit before its first waypoint
+
+
+def altitude_offsets(count: int, step_m: float = 3.0) -> list[float]:
+    """Distinct cruise-height offsets (0, +3, +6 m, ...) for shares flown side by side."""
+    return [k * step_m for k in range(count)]
+
+
+def makespan_s(assignments: Sequence[Assignment]) -> float:
+    return max((a.estimated_finish_s for a in assignments), default=0.0)
+
+
+# -- costs ------------------------------------------------------------------------------------
+def _to_within(dist: np.ndarray, tol: float, vmax: float, a: float, poll: float) -> np.ndarray:
+    """Trapezoidal leg from rest until within ``tol`` (vectorised), on the polling grid."""
+    dist = np.asarray(dist, dtype=float)
+    total = np.where(dist >= vmax * vmax / a, dist / vmax + vmax / a, 2 * np.sqrt(dist / a))
+    ramp = np.minimum(vmax * vmax / (2 * a), dist / 2)  # accelerating (= braking) distance
+    x = np.maximum(dist - tol, 0.0)  # where the tolerance is entered
+    t = np.where(
+        tol <= ramp,
+        total - math.sqrt(2 * tol / a),  # while braking
+        np.where(x <= ramp, np.sqrt(2 * x / a), vmax / a + (x - ramp) / vmax),
+    )
+    t = np.where(dist < tol, 0.0, t)
+    return np.where(t > 0, np.ceil(t / poll - 1e-9) * poll, 0.0)
+
+
+@dataclass
+class _Route:
+    xy: np.ndarray  # waypoints, metres east/north of waypoint 0
+    leg_s: np.ndarray  # unit i: flying from waypoint i-1 and its wait (0 for i = 0)
+    hold_s: np.ndarray  # unit i: what follows the wait (action, hold)
+    leg_mah: np.ndarray
+    hold_mah: np.ndarray
+    starts: np.ndarray  # where a share may begin
+    altitude_m: float
+    ref: LLA
+
+    @property
+    def prefix(self) -> np.ndarray:
+        """P[i] = work of units 1..i after the first: legs and holds."""
+        return np.concatenate([[0.0], np.cumsum((self.leg_s + self.hold_s)[1:])])
+
+    @property
+    def prefix_mah(self) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum((self.leg_mah + self.hold_mah)[1:])])
+
+
+def _route(
+    route: CoveragePlan | Sequence[LLA], holds_s: Any, altitude_m: float | None, model: VehicleModel
+) -> _Route:
+    if isinstance(route, CoveragePlan):
+        waypoints, altitude = (
+            route.waypoints,
+            route.altitude_m if altitude_m is None else altitude_m,
+        )
+        units = [route.unit_steps(i) for i in range(len(waypoints))]
+        starts = np.array(route.chunk_starts(), dtype=bool)
+    else:
+        waypoints, altitude = list(route), 10.0 if altitude_m is None else altitude_m
+        holds = [holds_s or 0.0] * len(waypoints) if not isinstance(holds_s, Sequence) else holds_s
+        units = [
+            [
+                {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": altitude},
+                {"command": "wait_for_flight"},
+            ]
+            + ([{"command": "sleep", "value": h}] if h else [])
+            for p, h in zip(waypoints, holds, strict=True)
+        ]
+        starts = np.ones(len(waypoints), dtype=bool)
+    if not waypoints:
+        raise ValueError("there are no waypoints to share")
+    ref = LLA(waypoints[0].lat, waypoints[0].lon)
+    xy = np.array([(n.e, n.n) for n in (lla_to_ned(LLA(p.lat, p.lon), ref) for p in waypoints)])
+    start = LLA(ref.lat, ref.lon, ref.alt_m + altitude)
+    est = estimate([s for u in units for s in u], start, ref, airborne=True, model=model)
+    n = len(units)
+    leg, hold, leg_mah, hold_mah, k = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), 0
+    for i, unit in enumerate(units):
+        leg[i], leg_mah[i] = sum(est.per_step[k : k + 2]), sum(est.per_step_mah[k : k + 2])
+        hold[i] = sum(est.per_step[k + 2 : k + len(unit)])
+        hold_mah[i] = sum(est.per_step_mah[k + 2 : k + len(unit)])
+        k += len(unit)
+    leg[0] = leg_mah[0] = 0.0
+    return _Route(xy, leg, hold, leg_mah, hold_mah, starts, altitude, ref)
+
+
+def _start_costs(
+    r: _Route, slot: DroneSlot, offset_m: float, model: VehicleModel, climb_while_flying: bool
+) -> np.ndarray:
+    """Seconds from now until ``slot`` has reached each waypoint (preparation + transit)."""
+    here = lla_to_ned(LLA(slot.position.lat, slot.position.lon), r.ref)
+    dist = np.hypot(r.xy[:, 0] - here.e, r.xy[:, 1] - here.n)
+    cruise = r.altitude_m + offset_m
+    height = cruise if slot.home is None else slot.position.alt_m - slot.home.alt_m
+    if not slot.airborne:
+        height = 0.0
+    m = model
+    horizontal = _to_within(dist, m.horizontal_tolerance_m, m.max_speed_mps, m.accel_mps2, m.poll_s)
+    rate = m.max_climb_mps if cruise >= height else m.max_descent_mps
+    climb = abs(cruise - height)
+    full_climb = _to_within(np.array([climb]), 1e-3, rate, m.accel_z_mps2, m.poll_s)[0]
+    to_tol = _to_within(np.array([climb]), m.vertical_tolerance_m, rate, m.accel_z_mps2, m.poll_s)
+    prep = 0.0 if slot.airborne else m.arming_s
+    if slot.airborne or climb_while_flying:
+        return prep + np.maximum(horizontal, to_tol[0])
+    # Take off, wait until at height, then fly (the seed's way); the last metres of the climb
+    # finish during the transit.
+    return prep + to_tol[0] + np.maximum(horizontal, full_climb - to_tol[0])
+
+
+# -- the split --------------------------------------------------------------------------------
+class _Search:
+    def __init__(
+        self, r: _Route, start: np.ndarray, usable_mah: np.ndarray, model: VehicleModel
+    ) -> None:
+        self.r, self.start = r, start  # start[d, m, b]: drone d as m-th share, from waypoint b
+        self.prefix, self.prefix_mah = r.prefix, r.prefix_mah
+        self.n = len(r.xy)
+        self.allowed = np.append(r.starts, True)
+        # What each drone may spend on its share's work, less what getting there costs.
+        transit_a = model.hover_current_a * _TRANSIT_CURRENT
+        self.budget_mah = usable_mah[:, None, None] - start * transit_a / 3.6
+
+    def step(self, reach: np.ndarray, d: int, m: int, limit: float) -> np.ndarray:
+        """Starts reachable once drone ``d`` (m-th share) has taken a chunk finishing by limit."""
+        n, p = self.n, self.prefix
+        b = np.flatnonzero(reach[:n])
+        budget = limit - self.start[d, m, b] - self.r.hold_s[b]
+        energy = self.budget_mah[d, m, b] - self.r.hold_mah[b]
+        ok = (budget >= 0) & (energy >= 0)
+        b, budget, energy = b[ok], budget[ok], energy[ok]
+        e = self.prefix_mah
+        last = np.minimum(  # the last waypoint within the time and within the battery
+            np.searchsorted(p, p[b] + budget + 1e-9, side="right") - 1,
+            np.searchsorted(e, e[b] + energy, side="right") - 1,
+        )
+        diff = np.zeros(n + 2)
+        np.add.at(diff, b + 1, 1)
+        np.add.at(diff, last + 2, -1)
+        grown = np.cumsum(diff)[: n + 1] > 0
+        return (reach | grown) & self.allowed
+
+    def feasible(self, limit: float, orders: list[tuple[int, ...]]) -> tuple[int, ...] | None:
+        first = np.zeros(self.n + 1, dtype=bool)
+        first[0] = True
+        memo: dict[tuple[int, ...], np.ndarray] = {(): first}
+        for order in orders:
+            for k in range(1, len(order) + 1):
+                key = order[:k]
+                if key not in memo:
+                    memo[key] = self.step(memo[order[: k - 1]], order[k - 1], k - 1, limit)
+                if memo[key][self.n]:
+                    return order
+        return None
+
+    def finish(self, d: int, m: int, b: int, e: int) -> float:
+        return float(self.start[d, m, b] + self.r.hold_s[b] + self.prefix[e - 1] - self.prefix[b])
+
+    def fits(self, d: int, m: int, b: int, e: int, limit: float) -> bool:
+        mah = self.r.hold_mah[b] + self.prefix_mah[e - 1] - self.prefix_mah[b]
+        in_time = self.finish(d, m, b, e) <= limit + 1e-6
+        return in_time and mah <= self.budget_mah[d, m, b] + 1e-6
+
+
+def split_route(
+    route: CoveragePlan | Sequence[LLA],
+    drones: Sequence[DroneSlot],
+    *,
+    holds_s: float | Sequence[float] | None = None,
+    altitude_m: float | None = None,
+    altitude_step_m: float = 0.0,
+    model: VehicleModel = DEFAULT_MODEL,
+    climb_while_flying: bool = True,
+    reserve_pct: float = 20.0,
+    max_orders: int = 720,
+) -> list[Assignment]:
+    """Contiguous shares of ``route`` minimising the makespan; in route order.
+
+    ``route`` is a :class:`CoveragePlan` (its mission steps are costed, and fly-through swaths
+    are never cut) or ordered waypoints with ``holds_s`` each. Share ``m`` along the route flies
+    ``m * altitude_step_m`` higher. A drone that cannot help gets an empty share; no share
+    takes its drone below ``reserve_pct`` of battery (ValueError when the fleet cannot).
+    """
+    if not drones:
+        raise ValueError("no drones to share the route among")
+    r = _route(route, holds_s, altitude_m, model)
+    offsets = altitude_offsets(len(drones), altitude_step_m)
+    start = np.array(
+        [
+            [_start_costs(r, slot, off, model, climb_while_flying) for off in offsets]
+            for slot in drones
+        ]
+    )
+    usable = np.array([(s.battery_pct - reserve_pct) / 100 * model.capacity_mah for s in drones])
+    search = _Search(r, start, usable, model)
+    by_distance = sorted(
+        range(len(drones)), key=lambda d: float(start[d, 0, 0]) if len(r.xy) else 0.0
+    )
+    orders = list(itertools.islice(itertools.permutations(by_distance), max_orders))
+    hi = float(start.max() + r.hold_s.max() + search.prefix[-1]) + 1.0  # any share ends by then
+    lo = 0.0
+    best = search.feasible(hi, orders)
+    if best is None:
+        raise ValueError(
+            f"the drones' batteries cannot cover the route and keep the {reserve_pct:g}% reserve"
+        )
+    while hi - lo > max(_PRECISION_S, 1e-4 * hi):
+        mid = (lo + hi) / 2
+        found = search.feasible(mid, orders)
+        if found is None:
+            lo = mid
+        else:
+            hi, best = mid, found
+    return _assign(search, drones, best, hi, offsets)
+
+
+def _assign(
+    search: _Search,
+    drones: Sequence[DroneSlot],
+    order: tuple[int, ...],
+    limit: float,
+    offsets: list[float],
+) -> list[Assignment]:
+    reach = [np.zeros(search.n + 1, dtype=bool)]
+    reach[0][0] = True
+    for m, d in enumerate(order):
+        reach.append(search.step(reach[-1], d, m, limit))
+    end, chunks = search.n, []
+    for m in range(len(order) - 1, -1, -1):
+        d = order[m]
+        b = next((b for b in range(end) if reach[m][b] and search.fits(d, m, b, end, limit)), end)
+        chunks.append((m, d, b, end))
+        end = b
+    out = []
+    for m, d, b, e in sorted(chunks):
+        done = search.finish(d, m, b, e) if e > b else 0.0
+        start = float(search.start[d, m, b]) if e > b else 0.0
+        out.append(Assignment(drones[d].drone_id, list(range(b, e)), done, offsets[m], start))
+    return out
+
+
+def seed_equal_split(
+    route: CoveragePlan | Sequence[LLA],
+    drones: Sequence[DroneSlot],
+    *,
+    holds_s: float | Sequence[float] | None = None,
+    altitude_m: float | None = None,
+    model: VehicleModel = DEFAULT_MODEL,
+    climb_while_flying: bool = False,
+) -> list[Assignment]:
+    """The seed's split: equal waypoint counts in route order, drones in the order given (the
+    last takes the remainder); finish times costed as :func:`split_route` does."""
+    if not drones:
+        raise ValueError("no drones to share the route among")
+    r = _route(route, holds_s, altitude_m, model)
+    start = np.array([[_start_costs(r, s, 0.0, model, climb_while_flying)] for s in drones])
+    search = _Search(r, start, np.full(len(drones), np.inf), model)
+    size = search.n // len(drones)
+    out = []
+    for k, slot in enumerate(drones):
+        b = k * size
+        e = search.n if k == len(drones) - 1 else b + size
+        done = search.finish(k, 0, b, e) if e > b else 0.0
+        first = float(start[k, 0, b]) if e > b else 0.0
+        out.append(Assignment(slot.drone_id, list(range(b, e)), done, 0.0, first))
+    return out

@@ -1,0 +1,179 @@
+"""Stage 5 of the coverage pipeline: turn the route into the points a drone flies to.
+
+Stopping surveys (the seed's) get a waypoint every ``spacing`` metres or less along each swath,
+both ends included — the seed's ``step_distance`` grid. Fly-through surveys get only each swath's
+two ends; the camera fires on distance in between. Transits between swaths bend round holes and
+concavities (:mod:`.router`). Finally :class:`GapFiller` checks the promise that every point of
+the area lies within half a spacing of the path, and where it does not (a spike between two
+swaths, a corner a swath misses) adds a short out-and-back spur inside the area.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+
+from dronefleet.ground.planner.coverage.route import Pass
+from dronefleet.ground.planner.coverage.router import InAreaRouter
+from dronefleet.ground.planner.coverage.swaths import slack_m
+
+#: Fly-through: swath ends are reached within this (m), so pictures land where planned.
+END_TOLERANCE_M = 0.5
+#: Fly-through: the last picture of a swath is due this far (m) before its end, so the
+#: distance trigger has fired before the drone is within END_TOLERANCE_M of it.
+TRIGGER_MARGIN_M = 2.0
+
+
+XY = tuple[float, float]
+
+
+class Kind(StrEnum):
+    WORK = "work"  # stop here and do the intermediate action
+    SWATH_START = "swath_start"  # fly-through: the camera trigger goes on here
+    SWATH_END = "swath_end"  # fly-through: and off here
+    TRANSIT = "transit"  # a bend on the way (round a hole or a concavity)
+
+
+@dataclass
+class RoutePoint:
+    x: float
+    y: float
+    kind: Kind
+    trigger_m: float = 0.0  # SWATH_START: distance between pictures along this swath
+    photos: int = 0  # pictures expected at / from this point
+
+    @property
+    def xy(self) -> tuple[float, float]:
+        return self.x, self.y
+
+
+@dataclass(frozen=True)
+class PathBuilder:
+    spacing_m: float
+    fly_through: bool = False
+    trigger_m: float = 0.0
+    photo_at_work: bool = False
+
+    def _work(self, a: XY, b: XY) -> list[RoutePoint]:
+        length = math.dist(a, b)
+        n = math.ceil((length - slack_m(self.spacing_m)) / self.spacing_m)
+        photo = int(self.photo_at_work)
+        if n <= 0:
+            return [RoutePoint((a[0] + b[0]) / 2, (a[1] + b[1]) / 2, Kind.WORK, photos=photo)]
+        dx, dy = (b[0] - a[0]) / n, (b[1] - a[1]) / n
+        return [
+            RoutePoint(a[0] + k * dx, a[1] + k * dy, Kind.WORK, photos=photo) for k in range(n + 1)
+        ]
+
+    def along(self, a: XY, b: XY) -> list[RoutePoint]:
+        """The points that cover the straight pass from ``a`` to ``b``."""
+        if not self.fly_through:
+            return self._work(a, b)
+        usable = math.dist(a, b) - TRIGGER_MARGIN_M
+        if usable < max(self.trigger_m / 2.0, TRIGGER_MARGIN_M):
+            return self._work(a, b)  # too short to fly through: stop and shoot
+        gaps = math.ceil((usable - slack_m(self.trigger_m)) / self.trigger_m)
+        return [
+            RoutePoint(*a, Kind.SWATH_START, trigger_m=usable / gaps, photos=gaps + 1),
+            RoutePoint(*b, Kind.SWATH_END),
+        ]
+
+    def build(self, passes: list[Pass], router: InAreaRouter) -> list[RoutePoint]:
+        points: list[RoutePoint] = []
+        for p in passes:
+            if points:
+                points += transit(router.path(points[-1].xy, p.start))
+            points += self.along(p.start, p.end)
+        return points
+
+
+def transit(path: list[XY]) -> list[RoutePoint]:
+    """The bends of a routed transit (its ends are route points already)."""
+    return [RoutePoint(x, y, Kind.TRANSIT) for x, y in path[1:-1]]
+
+
+def polyline(points: list[RoutePoint]) -> shapely.Geometry:
+    xy = [pt.xy for pt in points]
+    return LineString(xy) if len(xy) > 1 else Point(xy[0])
+
+
+@dataclass(frozen=True)
+class GapFiller:
+    """Adds spurs until every point of the area is within ``radius_m`` (+ tolerance) of the path.
+
+    A spur flies from the nearest route point to one end of the gap, across it to its far end
+    (covered like a swath), and back: one spur closes a long thin gap (a corner a swath misses).
+    """
+
+    radius_m: float
+    tolerance_m: float
+    builder: PathBuilder
+    max_rounds: int = 12
+
+    def gaps(self, points: list[RoutePoint], area: Polygon) -> list[tuple[XY, XY, float]]:
+        """Uncovered pieces: (near end, far end) of a spur that would close each, its area.
+
+        The buffer is ``radius + tol``; a piece counts when a point of its boundary (sampled
+        every 2·tol) is beyond ``radius + 1.5·tol`` or its inscribed circle is wider than tol,
+        so whatever passes is within ``radius + 3.5·tol`` of the path.
+        """
+        path = polyline(points)
+        tol = self.tolerance_m
+        covered = path.buffer(self.radius_m + tol, quad_segs=16)
+        found = []
+        for gap in shapely.get_parts(area.difference(covered)):
+            if gap.geom_type != "Polygon" or gap.area < tol * tol / 16:
+                continue  # float dust where the buffer meets the edge
+            dense = shapely.segmentize(gap, 2 * tol)
+            coords = np.vstack([np.asarray(r.coords) for r in (dense.exterior, *dense.interiors)])
+            far = shapely.distance(shapely.points(coords), path)
+            k = int(np.argmax(far))
+            if far[k] > self.radius_m + 1.5 * tol:
+                tip = coords[k]
+            else:  # the boundary is covered; is the inside (a strip between two passes)?
+                circle = shapely.maximum_inscribed_circle(gap, tol / 4)
+                if circle.length <= tol:
+                    continue  # a sliver along the covered edge
+                tip = np.asarray(circle.coords[0])
+                tip = coords[int(np.argmax(np.hypot(*(coords - tip).T)))]
+            other = coords[int(np.argmax(np.hypot(*(coords - tip).T)))]
+            near, far_end = (float(other[0]), float(other[1])), (float(tip[0]), float(tip[1]))
+            found.append((near, far_end, float(gap.area)))
+        return found
+
+    def fill(
+        self, points: list[RoutePoint], area: Polygon, router: InAreaRouter
+    ) -> tuple[list[RoutePoint], float]:
+        """The points with spurs added, and the area (m²) still uncovered (normally 0)."""
+        points = list(points)
+        for _ in range(self.max_rounds):
+            gaps = self.gaps(points, area)
+            if not gaps:
+                return points, 0.0
+            inserts = [self._spur(points, near, far, router) for near, far, _ in gaps]
+            for k, extra in sorted(inserts, key=lambda item: -item[0]):
+                points[k + 1 : k + 1] = extra
+        return points, sum(a for _, _, a in self.gaps(points, area))
+
+    def _spur(
+        self, points: list[RoutePoint], near: XY, far: XY, router: InAreaRouter
+    ) -> tuple[int, list[RoutePoint]]:
+        # Never inside a fly-through swath (that would break the camera run).
+        allowed = [i for i, p in enumerate(points) if p.kind is not Kind.SWATH_START]
+        k = min(allowed, key=lambda i: math.dist(points[i].xy, near))
+        here = points[k].xy
+        out: list[RoutePoint] = transit(router.path(here, near))
+        across = router.path(near, far)
+        for a, b in itertools.pairwise(across):
+            piece = self.builder.along(a, b)
+            if out and out[-1].kind is Kind.WORK and out[-1].xy == piece[0].xy:
+                piece = piece[1:]  # the bend is a waypoint already
+            out += piece
+        out += transit(router.path(far, here))
+        return k, [*out, RoutePoint(*here, Kind.TRANSIT)]

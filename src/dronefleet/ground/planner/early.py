@@ -1,0 +1,157 @@
+"""Early replacement (beyond the seed): launch the replacement before the battery runs out.
+
+After each step a drone reports, its remaining work is costed against its battery (the vehicle
+model's energy estimate). If it cannot finish with the reserve left, the planner finds the last
+waypoint unit it can finish, picks the replacement, and launches it when the replacement's
+preparation and transit take as long as the old drone's remaining share: the new drone arrives as
+the old one leaves, and the handover gap is near zero instead of arming + climb + transit.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from dronefleet.geo.types import LLA
+from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.legs import mission_altitude, preparation
+from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.replacement import camera_state, pick
+from dronefleet.ground.planner.units import remaining, units
+
+log = logging.getLogger(__name__)
+
+#: Launch this many vehicle seconds before the computed moment (command latency, spool-up).
+LAUNCH_MARGIN_S = 1.5
+
+
+async def check(planner: Any, record: MissionRecord, leg: Leg) -> None:
+    try:
+        await _check(planner, record, leg)
+    finally:
+        planner._checking.discard(leg.leg_id)
+
+
+async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
+    if not record.options.get("early_replacement", True) or record.terminal:
+        return
+    if leg.role in ("recovery", "leaving") or not leg.active:
+        return
+    if any(h["from_leg"] == leg.leg_id for h in record.handovers):
+        return
+    latest = planner.latest.get(leg.drone_id)
+    if latest is None:
+        return
+    here = LLA(latest["lat"], latest["lon"], latest.get("alt_m", 0.0))
+    battery = float(latest["battery_pct"])
+    left = remaining(record.work, leg.indices, set(record.done))
+    if not left:
+        return
+    drone = await planner.fleet.drone(leg.drone_id)
+    if drone is None:
+        return
+    work = record.work
+
+    def cost(indices: list[int]):
+        return estimate(
+            [work[i] for i in indices],
+            start=here,
+            home=drone.home,
+            airborne=True,
+            battery_pct=battery,
+        )
+
+    if can_finish(cost(left), reserve_pct=planner.reserve_pct)[0]:
+        return
+    groups = units(work, left)
+    keep = 0
+    for n in range(1, len(groups) + 1):
+        if not can_finish(
+            cost([i for g in groups[:n] for i in g]), reserve_pct=planner.reserve_pct
+        )[0]:
+            break
+        keep = n
+    kept = [i for g in groups[:keep] for i in g]
+    rest = [i for g in groups[keep:] for i in g]
+    t_old = cost(kept).duration_s if kept else 0.0
+    leave = next((work[i] for i in reversed(kept) if work[i].get("command") == "navigate"), None)
+    leave_at = (leave["lat"], leave["lon"]) if leave else (here.lat, here.lon)
+    altitude = mission_altitude(work)
+    strategy = record.options.get("strategy", "ours")
+    fleet = await planner.fleet.drones()
+    chosen, prefix = pick(
+        planner,
+        fleet,
+        record,
+        leave_at,
+        [work[i] for i in rest],
+        altitude,
+        planner.busy_drones() | {leg.drone_id},
+        strategy,
+    )
+    if chosen is None:
+        if keep == 0:
+            log.warning(
+                "mission %s: %s cannot finish and %s", record.mission_id, leg.drone_id, prefix
+            )
+        return
+    # Approach 3 m above the work so the two drones never share a height at the handover.
+    prefix = preparation(chosen, altitude, strategy=strategy, go_to=leave_at, transit_offset_m=3.0)
+    t_new = estimate(
+        prefix,
+        start=chosen.position,
+        home=chosen.home,
+        airborne=chosen.airborne,
+        battery_pct=chosen.battery_pct,
+    ).duration_s
+    if t_old > t_new + LAUNCH_MARGIN_S:
+        return  # not yet: checked again after the next step
+    async with planner._lock:
+        if not leg.active or record.terminal:
+            return
+        leg.state = LegState.REPLACED
+        leaving = Leg(
+            leg_id=planner.next_leg_id(record),
+            drone_id=leg.drone_id,
+            role="leaving",
+            indices=kept,
+            suffix=[{"command": "land"}, {"command": "wait_for_flight"}],
+        )
+        await planner.send_leg(record, leaving)
+        trigger = camera_state(record, leg)
+        if trigger:
+            prefix.append({"command": "camera_trigger", "value": trigger})
+        new_leg = Leg(
+            leg_id=planner.next_leg_id(record),
+            drone_id=chosen.drone_id,
+            role="replacement",
+            prefix=prefix,
+            indices=rest,
+        )
+        handover = {
+            "kind": "early",
+            "from_drone": leg.drone_id,
+            "from_leg": leg.leg_id,
+            "leaving_leg": leaving.leg_id,
+            "to_drone": chosen.drone_id,
+            "to_leg": new_leg.leg_id,
+            "reason": f"battery {battery:.1f}% cannot finish {len(groups)} waypoint units; "
+            f"leaves after {keep}",
+            "launch_vehicle_s": latest.get("vehicle_time_s"),
+            "predicted_old_s": round(t_old, 1),
+            "predicted_new_s": round(t_new, 1),
+            "resume_position": {"lat": leave_at[0], "lon": leave_at[1]},
+            "resume_index": rest[0] if rest else None,
+            "remaining_steps": len(rest),
+        }
+        record.handovers.append(handover)
+        record.state = MissionState.HANDED_OVER
+        if rest:
+            await planner.send_leg(record, new_leg)
+        else:
+            handover["to_drone"] = None
+        await planner.save(record)
+    planner.emit("handover", mission_id=record.mission_id, **handover)
+    log.info(
+        "mission %s: early handover %s -> %s", record.mission_id, leg.drone_id, chosen.drone_id
+    )

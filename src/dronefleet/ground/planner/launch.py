@@ -1,0 +1,268 @@
+"""Creating, checking, previewing and starting missions (REST: ``/api/v1/missions``).
+
+A mission is given as steps (the seed's commands) or as an area (coverage). Before it is accepted
+it is checked: no step above the altitude limit, and every drone's battery must finish its share
+with the reserve left (energy estimated from the vehicle model). A refused mission changes nothing.
+"""
+
+from __future__ import annotations
+
+import secrets
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from dronefleet.geo.types import LLA
+from dronefleet.ground.planner import allocation
+from dronefleet.ground.planner.coverage import AreaSpec, plan_area
+from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.fleet_view import DroneView, candidates
+from dronefleet.ground.planner.legs import mission_altitude, preparation
+from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
+from dronefleet.ground.planner.service import MissionPlanner, PlannerError
+from dronefleet.ground.planner.units import units
+from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.commands import parse_step
+
+
+class MissionOptions(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    replacement: bool = True  # replace a drone that raises CRITICAL
+    early_replacement: bool = True  # launch the replacement before the battery runs out
+    collaboration: bool = True  # grow the area on OUT_MEASURE
+    collaborators: int = Field(default=2, ge=0, le=10)
+    max_expansions: int = Field(default=1, ge=0, le=10)
+    strategy: Literal["ours", "seed"] = "ours"
+
+
+class MissionSpec(BaseModel):
+    """What a person (or the web planner) asks for."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(default="", max_length=200)
+    mission_id: str | None = Field(default=None, pattern=r"^[A-Za-z0-9_\-]{1,64}$")
+    drones: list[str] = Field(default_factory=list, max_length=50)
+    steps: list[dict[str, Any]] | None = Field(default=None, max_length=10_000)
+    area: AreaSpec | None = None
+    options: MissionOptions = Field(default_factory=MissionOptions)
+
+
+def work_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
+    """The work steps (validated) and the coverage plan (for areas).
+
+    An area alone gives its generated steps; steps alone are flown as given; both together fly
+    the given steps (an edited waypoint list) and keep the area for a collaborative extension.
+    """
+    if spec.steps is None and spec.area is None:
+        raise PlannerError("give 'steps', 'area', or both")
+    plan = plan_area(spec.area) if spec.area is not None else None
+    if spec.steps is None:
+        return plan.mission_steps(), plan
+    steps = []
+    for i, step in enumerate(spec.steps):
+        try:
+            steps.append(parse_step(step).model_dump(mode="json", exclude_none=True))
+        except MessageError as exc:
+            raise PlannerError(f"step {i}: {exc}") from exc
+    if not steps:
+        raise PlannerError("a mission needs at least one step")
+    return steps, plan
+
+
+def check_altitudes(work: list[dict[str, Any]], limit_m: float) -> None:
+    for i, step in enumerate(work):
+        height = step.get("altitude_delta") if step.get("command") == "navigate" else None
+        if step.get("command") == "takeoff":
+            height = step.get("value")
+        if height is not None and height > limit_m:
+            raise PlannerError(
+                f"step {i} ({step['command']}) goes to {height:g} m, above the {limit_m:g} m limit"
+            )
+
+
+def self_prepared(work: list[dict[str, Any]]) -> bool:
+    """A step list that arms and takes off by itself needs no preparation prefix."""
+    return any(s.get("command") in ("arm", "takeoff") for s in work)
+
+
+async def assign(
+    planner: MissionPlanner, spec: MissionSpec, work: list[dict[str, Any]], plan: Any
+) -> list[tuple[DroneView, list[dict[str, Any]], list[int], dict[str, Any]]]:
+    """Which drone flies which steps, with its preparation and estimate; refuses with reasons."""
+    fleet = {d.drone_id: d for d in await planner.fleet.drones()}
+    busy = planner.busy_drones()
+    chosen: list[DroneView] = []
+    for drone_id in spec.drones:
+        drone = fleet.get(drone_id)
+        if drone is None:
+            raise PlannerError(f"drone {drone_id!r} is not known", status=404)
+        if not drone.online:
+            raise PlannerError(f"drone {drone_id} is lost", status=409)
+        if drone_id in busy or drone.mission_id is not None:
+            raise PlannerError(
+                f"drone {drone_id} is busy with mission {drone.mission_id}", status=409
+            )
+        chosen.append(drone)
+    if not chosen:
+        first = next((s for s in work if s.get("command") == "navigate"), None)
+        near = LLA(first["lat"], first["lon"]) if first else None
+        if near is None and fleet:
+            near = next(iter(fleet.values())).position
+        pool = candidates(list(fleet.values()), near, exclude=busy) if near else []
+        if not pool:
+            raise PlannerError("no idle drone is available", status=409)
+        chosen = pool[:1]
+    altitude = mission_altitude(work, spec.area.altitude_m if spec.area else 10.0)
+    strategy = spec.options.strategy
+    if len(chosen) == 1 or plan is None or spec.steps is not None:
+        if len(chosen) > 1:
+            raise PlannerError("a step list flies on one drone; give an area alone to share it")
+        shares = [(chosen[0], list(range(len(work))))]
+    else:
+        groups = units(work)
+        slots = [
+            allocation.DroneSlot(d.drone_id, d.position, d.airborne, d.battery_pct, d.home)
+            for d in chosen
+        ]
+        split = allocation.seed_equal_split if strategy == "seed" else allocation.split_route
+        by_id = {d.drone_id: d for d in chosen}
+        shares = [
+            (by_id[a.drone_id], [i for w in a.waypoint_indices for i in groups[w]])
+            for a in split(plan, slots)
+            if a.waypoint_indices
+        ]
+    result = []
+    for drone, indices in shares:
+        prefix = [] if self_prepared(work) else preparation(drone, altitude, strategy=strategy)
+        steps = prefix + [work[i] for i in indices]
+        est = estimate(
+            steps,
+            start=drone.position,
+            home=drone.home,
+            airborne=drone.airborne,
+            battery_pct=drone.battery_pct,
+        )
+        ok, why = can_finish(est, reserve_pct=planner.reserve_pct)
+        if not ok and not _relief_exists(spec, fleet, busy, chosen, est):
+            raise PlannerError(f"drone {drone.drone_id} cannot finish its share: {why}")
+        if not ok:
+            est.notes.append(f"handed over in flight: {why}")
+        result.append(
+            (
+                drone,
+                prefix,
+                indices,
+                {
+                    "duration_s": round(est.duration_s, 1),
+                    "battery_used_pct": round(est.battery_used_pct, 1),
+                    "battery_end_pct": round(est.battery_end_pct, 1),
+                    "notes": list(est.notes),
+                },
+            )
+        )
+    return result
+
+
+def _relief_exists(spec: MissionSpec, fleet: dict, busy: set, chosen: list, est: Any) -> bool:
+    """A share the battery cannot finish is still accepted when the planner will hand it over
+    in flight (early replacement on) and an idle drone could fly all of it with the reserve."""
+    if not (spec.options.replacement and spec.options.early_replacement):
+        return False
+    taken = busy | {d.drone_id for d in chosen}
+    spare = [d for d in fleet.values() if d.idle and d.drone_id not in taken]
+    return any(d.battery_pct - est.battery_used_pct >= 20.0 + 5.0 for d in spare)
+
+
+async def preview(planner: MissionPlanner, spec: MissionSpec) -> dict[str, Any]:
+    work, plan = work_of(spec)
+    check_altitudes(work, planner.max_altitude_m)
+    shares = await assign(planner, spec, work, plan)
+    return {
+        "steps": work,
+        "waypoints": [{"lat": p.lat, "lon": p.lon} for p in plan.waypoints] if plan else [],
+        "area_m2": round(plan.area_m2, 1) if plan else None,
+        "angle_deg": getattr(plan, "angle_deg", None),
+        "spacing_m": getattr(plan, "spacing_m", None),
+        "drones": [
+            {"drone_id": d.drone_id, "steps": len(prefix) + len(idx), **est}
+            for d, prefix, idx, est in shares
+        ],
+    }
+
+
+async def create(
+    planner: MissionPlanner, spec: MissionSpec, *, start: bool = False
+) -> MissionRecord:
+    work, plan = work_of(spec)
+    check_altitudes(work, planner.max_altitude_m)
+    shares = await assign(planner, spec, work, plan)
+    record = MissionRecord(
+        mission_id=spec.mission_id or f"M{secrets.token_hex(4)}",
+        name=spec.name,
+        drones=[d.drone_id for d, *_ in shares],
+        area=spec.area.model_dump(mode="json") if spec.area else None,
+        work=work,
+        options={**spec.options.model_dump(mode="json"), "custom_steps": spec.steps is not None},
+    )
+    await planner.add(record)
+    if start:
+        await launch(planner, record, shares)
+    return record
+
+
+async def launch(planner: MissionPlanner, record: MissionRecord, shares: list[Any]) -> None:
+    record.state = MissionState.RUNNING
+    for drone, prefix, indices, _est in shares:
+        leg = Leg(
+            leg_id=planner.next_leg_id(record),
+            drone_id=drone.drone_id,
+            prefix=prefix,
+            indices=indices,
+        )
+        await planner.send_leg(record, leg)
+
+
+async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
+    record = planner.get(mission_id)
+    if record.state is not MissionState.PLANNED:
+        raise PlannerError(f"mission {mission_id} is {record.state.value}, not planned", status=409)
+    spec = MissionSpec(
+        drones=record.drones,
+        steps=record.work if record.options.get("custom_steps", True) else None,
+        area=AreaSpec.model_validate(record.area) if record.area else None,
+        options=record.options,
+    )
+    work, plan = work_of(spec)
+    record.work = work
+    await launch(planner, record, await assign(planner, spec, work, plan))
+    return record
+
+
+async def call_drone(
+    planner: MissionPlanner,
+    lat: float,
+    lon: float,
+    *,
+    altitude_m: float = 10.0,
+    strategy: str = "ours",
+) -> MissionRecord:
+    """The seed's panic button (5.1): the nearest available drone comes and hovers above you."""
+    target = LLA(lat, lon)
+    fleet = await planner.fleet.drones()
+    pool = candidates(
+        fleet, target, exclude=planner.busy_drones(), min_battery_pct=planner.reserve_pct
+    )
+    if not pool:
+        raise PlannerError("no drone is available to come", status=409)
+    spec = MissionSpec(
+        name=f"call to {lat:.6f},{lon:.6f}",
+        drones=[pool[0].drone_id],
+        steps=[
+            {"command": "navigate", "lat": lat, "lon": lon, "altitude_delta": altitude_m},
+            {"command": "wait_for_flight"},
+        ],
+        options=MissionOptions(strategy=strategy, collaboration=False),
+    )
+    return await create(planner, spec, start=True)

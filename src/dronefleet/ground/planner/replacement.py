@@ -1,0 +1,143 @@
+"""Self-replacement (seed 3.1.5, 5.3): a drone that raises CRITICAL is replaced in flight.
+
+The replacement is the idle, online drone with enough battery for the rest, nearest to where it
+must go first (the failing drone's position). The failing drone lands; the replacement arms, takes
+off, flies to the failing drone's position and then flies exactly the steps not yet flown: every
+waypoint unit not wholly done, none that is (see :mod:`.units`).
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.fleet_view import DroneView, candidates
+from dronefleet.ground.planner.legs import mission_altitude, preparation
+from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.units import remaining
+
+log = logging.getLogger(__name__)
+
+
+def camera_state(record: MissionRecord, leg: Leg) -> float:
+    """The camera-trigger distance in force when the leg stopped (0: off)."""
+    distance = 0.0
+    for i in leg.indices:
+        if i in record.done and record.work[i].get("command") == "camera_trigger":
+            distance = float(record.work[i].get("value") or 0.0)
+    return distance
+
+
+def pick(
+    planner: Any,
+    fleet: list[DroneView],
+    record: MissionRecord,
+    near: tuple[float, float],
+    work_steps: list[dict[str, Any]],
+    altitude_m: float,
+    exclude: set[str],
+    strategy: str,
+) -> tuple[DroneView, list[dict[str, Any]]] | tuple[None, str]:
+    """The nearest candidate that can finish; or (None, reason)."""
+    from dronefleet.geo.types import LLA
+
+    target = LLA(near[0], near[1])
+    reasons = []
+    for drone in candidates(fleet, target, exclude=exclude):
+        prefix = preparation(drone, altitude_m, strategy=strategy, go_to=near)
+        est = estimate(
+            prefix + work_steps,
+            start=drone.position,
+            home=drone.home,
+            airborne=drone.airborne,
+            battery_pct=drone.battery_pct,
+        )
+        ok, why = can_finish(est, reserve_pct=planner.reserve_pct)
+        if ok:
+            return drone, prefix
+        reasons.append(f"{drone.drone_id}: {why}")
+    return None, "no idle drone can take over" + (f" ({'; '.join(reasons)})" if reasons else "")
+
+
+async def replace(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str, Any]) -> None:
+    """Replace the drone flying ``leg`` after its CRITICAL ``alarm``."""
+    async with planner._lock:
+        if leg.role in ("recovery", "leaving"):
+            return  # already on its way out: its replacement is planned
+        if not leg.active or any(h["from_leg"] == leg.leg_id for h in record.handovers):
+            return
+        leg.state = LegState.REPLACED
+        left = remaining(record.work, leg.indices, set(record.done))
+        pos = alarm.get("position") or {}
+        near = (pos["lat"], pos["lon"])
+        handover: dict[str, Any] = {
+            "from_drone": leg.drone_id,
+            "from_leg": leg.leg_id,
+            "reason": alarm.get("message") or "CRITICAL alarm",
+            "alarm_vehicle_s": alarm.get("vehicle_time_s"),
+            "resume_position": {"lat": near[0], "lon": near[1]},
+            "resume_index": left[0] if left else None,
+            "remaining_steps": len(left),
+            "kind": "on alarm",
+            "leave_vehicle_s": alarm.get("vehicle_time_s"),
+        }
+        record.handovers.append(handover)
+        # The failing drone stops and comes down where it is (the seed's controlled descent).
+        recovery = Leg(
+            leg_id=planner.next_leg_id(record),
+            drone_id=leg.drone_id,
+            role="recovery",
+            prefix=[{"command": "land"}, {"command": "wait_for_flight"}],
+        )
+        await planner.send_leg(record, recovery)
+        if not left:
+            handover["to_drone"] = None
+            await planner.save(record)
+            return
+        try:
+            fleet = await planner.fleet.drones()
+        except Exception as exc:
+            fleet, why = [], f"the Drone Identifier did not answer: {exc}"
+        work = [record.work[i] for i in left]
+        trigger = camera_state(record, leg)  # restored on arrival, for fly-through surveys
+        altitude = mission_altitude(record.work)
+        strategy = record.options.get("strategy", "ours")
+        chosen, prefix_or_reason = (
+            (None, why)
+            if not fleet
+            else pick(
+                planner,
+                fleet,
+                record,
+                near,
+                work,
+                altitude,
+                planner.busy_drones() | {leg.drone_id},
+                strategy,
+            )
+        )
+        if chosen is None:
+            handover["to_drone"] = None
+            handover["error"] = prefix_or_reason
+            record.state = MissionState.FAILED
+            record.error = f"replacement failed: {prefix_or_reason}"
+            await planner.save(record)
+            planner.emit("mission", **record.summary())
+            log.warning("mission %s: %s", record.mission_id, record.error)
+            return
+        prefix = prefix_or_reason
+        if trigger:
+            prefix = [*prefix, {"command": "camera_trigger", "value": trigger}]
+        new_leg = Leg(
+            leg_id=planner.next_leg_id(record),
+            drone_id=chosen.drone_id,
+            role="replacement",
+            prefix=prefix,
+            indices=left,
+        )
+        handover.update(to_drone=chosen.drone_id, to_leg=new_leg.leg_id)
+        record.state = MissionState.HANDED_OVER
+        await planner.send_leg(record, new_leg)
+        planner.emit("handover", mission_id=record.mission_id, **handover)
+        log.info("mission %s: %s replaces %s", record.mission_id, chosen.drone_id, leg.drone_id)

@@ -1,0 +1,390 @@
+"""Mission Planner (seed 3.4.2.4, 4.2.4): missions out, progress in, drones replaced and joined.
+
+It sends each drone its leg of a mission on ``<id>/mission/in``, follows ``+/mission/out`` and
+``+/alarms/out``, and keeps every mission's state in the ground state store. Its broker session is
+persistent (QoS 1), so progress and alarms published while the planner is down are delivered when
+it comes back, and tracking carries on where it stopped. A CRITICAL alarm starts a replacement
+(:mod:`.replacement`); an OUT_MEASURE alarm grows the area (:mod:`.collaboration`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+from dronefleet.ground.planner.fleet_view import FleetView
+from dronefleet.ground.planner.mission_log import build_log
+from dronefleet.ground.planner.models import (
+    Leg,
+    LegState,
+    MissionRecord,
+    MissionState,
+    StepReport,
+)
+from dronefleet.ground.planner.store import MissionStore
+from dronefleet.ground.planner.units import remaining
+from dronefleet.ground.state import StateStore
+from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
+from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.missions import MissionAction, MissionRequest
+from dronefleet.messaging.rpc import Requester
+from dronefleet.messaging.topics import Channel, Direction, any_drone, topic
+
+log = logging.getLogger(__name__)
+
+PATH_SAMPLE_S = 1.0  # vehicle seconds between path points kept for the mission log
+
+
+class PlannerError(Exception):
+    """A request the planner refuses; the message says why (REST: 4xx)."""
+
+    def __init__(self, message: str, status: int = 422) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+class MissionPlanner:
+    def __init__(
+        self,
+        broker_url: Any,
+        state: StateStore,
+        *,
+        client_id: str = "ground-planner",
+        max_altitude_m: float = 120.0,
+        reserve_pct: float = 20.0,
+    ) -> None:
+        self.client = BrokerClient(broker_url, client_id, persistent_session=True)
+        self.requester = Requester(self.client)
+        self.fleet = FleetView(self.requester)
+        self.store = MissionStore(state)
+        self.max_altitude_m = max_altitude_m
+        self.reserve_pct = reserve_pct
+        self.missions: dict[str, MissionRecord] = {}
+        self._legs: dict[str, str] = {}  # leg id -> mission id
+        self._lock = asyncio.Lock()
+        self._listeners: list[Callable[[str, dict[str, Any]], Any]] = []
+        self._tasks: set[asyncio.Task[Any]] = set()
+        self._dirty: set[str] = set()
+        self._flusher: asyncio.Task[None] | None = None
+        self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
+        self._checking: set[str] = set()  # legs whose early-replacement check is running
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    async def start(self) -> MissionPlanner:
+        await self.store.open()
+        for record in await self.store.load_all():
+            self._track(record)
+        await self.client.start(timeout_s=None)
+        await self.client.subscribe(any_drone(Channel.MISSION), self._on_progress, qos=QOS_COMMAND)
+        await self.client.subscribe(any_drone(Channel.ALARMS), self._on_alarm, qos=QOS_COMMAND)
+        await self.client.subscribe(
+            any_drone(Channel.TELEMETRY), self._on_telemetry, qos=QOS_STREAM
+        )
+        await self.client.wait_connected(15)
+        self._flusher = asyncio.create_task(self._flush_paths(), name="planner:paths")
+        await self._catch_up()
+        return self
+
+    async def _catch_up(self) -> None:
+        """Ask every drone with an active leg to re-send its reports: whatever was published while
+        the planner was away (not every broker queues for an offline session) arrives now, and
+        duplicates are dropped by step index."""
+        for record in self.missions.values():
+            if record.terminal:
+                continue
+            for leg in record.active_legs():
+                await self.client.publish(
+                    topic(leg.drone_id, Channel.MISSION, Direction.IN),
+                    MissionRequest(mission_id=leg.leg_id, action=MissionAction.REPORT),
+                    qos=QOS_COMMAND,
+                )
+
+    async def stop(self) -> None:
+        if self._flusher is not None:
+            self._flusher.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._flusher
+        for task in list(self._tasks):
+            task.cancel()
+        for record_id in list(self._dirty):
+            with contextlib.suppress(Exception):
+                await self.store.save(self.missions[record_id])
+        await self.client.stop()
+
+    def _track(self, record: MissionRecord) -> None:
+        self.missions[record.mission_id] = record
+        for leg in record.legs:
+            self._legs[leg.leg_id] = record.mission_id
+
+    def add_listener(self, listener: Callable[[str, dict[str, Any]], Any]) -> None:
+        """``listener(event, data)`` for every mission event (the WebSocket hub, experiments)."""
+        self._listeners.append(listener)
+
+    def emit(self, event: str, /, **data: Any) -> None:
+        if event in ("mission", "handover", "expansion", "leg"):
+            # Ground-wide announcement (the WebSocket stream); progress and alarms already
+            # travel on the drones' own topics.
+            self.spawn(self._announce(event, data), f"announce:{event}")
+        for listener in self._listeners:
+            try:
+                listener(event, data)
+            except Exception:
+                log.exception("mission listener failed on %s", event)
+
+    def spawn(self, coro: Any, name: str) -> None:
+        task = asyncio.create_task(coro, name=name)
+        self._tasks.add(task)
+        task.add_done_callback(self._task_done)
+
+    def _task_done(self, task: asyncio.Task[Any]) -> None:
+        self._tasks.discard(task)
+        if not task.cancelled() and task.exception() is not None:
+            log.error("planner task %s failed", task.get_name(), exc_info=task.exception())
+
+    async def _announce(self, event: str, data: dict[str, Any]) -> None:
+        from dronefleet.ground.manager.stream import PLANNER_EVENTS_TOPIC
+
+        await self.client.publish(
+            PLANNER_EVENTS_TOPIC, {**data, "event": event}, qos=QOS_STREAM, disposable=True
+        )
+
+    # -- records -----------------------------------------------------------------------------
+    def get(self, mission_id: str) -> MissionRecord:
+        record = self.missions.get(mission_id)
+        if record is None:
+            raise PlannerError(f"no mission {mission_id!r}", status=404)
+        return record
+
+    async def save(self, record: MissionRecord) -> None:
+        self._dirty.discard(record.mission_id)
+        await self.store.save(record)
+
+    async def add(self, record: MissionRecord) -> MissionRecord:
+        if record.mission_id in self.missions:
+            raise PlannerError(f"mission {record.mission_id!r} exists", status=409)
+        self._track(record)
+        await self.save(record)
+        self.emit("mission", **record.summary())
+        return record
+
+    def next_leg_id(self, record: MissionRecord) -> str:
+        return f"{record.mission_id}.{len(record.legs) + 1}"
+
+    def busy_drones(self) -> set[str]:
+        return {
+            leg.drone_id
+            for r in self.missions.values()
+            if not r.terminal
+            for leg in r.active_legs()
+        }
+
+    # -- sending -----------------------------------------------------------------------------
+    async def send_leg(self, record: MissionRecord, leg: Leg) -> None:
+        """Record the leg durably, then send it to its drone (QoS 1)."""
+        if record.leg(leg.leg_id) is None:
+            record.legs.append(leg)
+        self._legs[leg.leg_id] = record.mission_id
+        await self.save(record)
+        request = MissionRequest(mission_id=leg.leg_id, steps=leg.drone_steps(record.work))
+        await self.client.publish(
+            topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
+        )
+        self.emit("leg", mission_id=record.mission_id, leg_id=leg.leg_id, drone_id=leg.drone_id)
+
+    async def stop_leg(self, leg: Leg, *, state: LegState = LegState.STOPPED) -> None:
+        leg.state = state
+        await self.client.publish(
+            topic(leg.drone_id, Channel.MISSION, Direction.IN),
+            MissionRequest(mission_id=leg.leg_id, action=MissionAction.STOP),
+            qos=QOS_COMMAND,
+        )
+
+    async def stop_mission(self, mission_id: str) -> MissionRecord:
+        async with self._lock:
+            record = self.get(mission_id)
+            if record.terminal:
+                return record
+            for leg in record.active_legs():
+                await self.stop_leg(leg)
+            await self._finish(record, MissionState.STOPPED, "stopped on request")
+            return record
+
+    # -- progress ----------------------------------------------------------------------------
+    async def _on_progress(self, topic_name: str, payload: bytes) -> None:
+        try:
+            msg = decode_object(payload)
+        except MessageError as exc:
+            log.warning("dropping progress on %s: %s", topic_name, exc)
+            return
+        mission_id = self._legs.get(str(msg.get("mission_id")))
+        if mission_id is None:
+            return  # not one of ours (a mission sent by hand, or the demo)
+        async with self._lock:
+            record = self.missions[mission_id]
+            leg = record.leg(str(msg["mission_id"]))
+            if leg is None or record.terminal:
+                return
+            self._apply(record, leg, msg)
+            await self.save(record)
+        self.emit("progress", **{**msg, "mission_id": mission_id, "leg_id": leg.leg_id})
+        await self.after_progress(record, leg, msg)
+        if msg.get("event") == "step" and leg.active and leg.leg_id not in self._checking:
+            from dronefleet.ground.planner import early
+
+            self._checking.add(leg.leg_id)
+            self.spawn(early.check(self, record, leg), f"early:{leg.leg_id}")
+
+    def _apply(self, record: MissionRecord, leg: Leg, msg: dict[str, Any]) -> None:
+        event = msg.get("event")
+        if event == "accepted" and leg.state is LegState.SENT:
+            leg.state = LegState.RUNNING
+            leg.started_vehicle_s = msg.get("vehicle_time_s")
+            if record.started_at is None:
+                record.started_at = time.time()
+        elif event == "step":
+            drone_step = int(msg.get("step_index", -1))
+            index = leg.global_index(drone_step)
+            if any(r.drone_step == drone_step for r in leg.reports):
+                return  # a duplicate delivery (QoS 1 is at-least-once)
+            leg.reports.append(
+                StepReport(
+                    index=index,
+                    drone_step=drone_step,
+                    command=str(msg.get("command")),
+                    position=msg.get("position"),
+                    started_s=msg.get("step_started_s"),
+                    duration_s=msg.get("step_duration_s"),
+                    vehicle_time_s=msg.get("vehicle_time_s"),
+                )
+            )
+            if index is not None:
+                record.done.setdefault(index, leg.drone_id)
+            self._path_point(record, leg.drone_id, msg.get("vehicle_time_s"), msg.get("position"))
+        elif event == "completed" and leg.active:
+            leg.state = LegState.COMPLETED
+            leg.ended_vehicle_s = msg.get("vehicle_time_s")
+        elif event in ("failed", "rejected") and leg.active:
+            leg.state = LegState.FAILED
+            leg.error = msg.get("error")
+            leg.ended_vehicle_s = msg.get("vehicle_time_s")
+        elif event == "stopped" and leg.active:
+            leg.state = LegState.STOPPED
+            leg.ended_vehicle_s = msg.get("vehicle_time_s")
+
+    async def after_progress(self, record: MissionRecord, leg: Leg, msg: dict[str, Any]) -> None:
+        """Close the mission when nothing is left to fly, or fail it when a leg failed."""
+        async with self._lock:
+            if record.terminal or record.active_legs():
+                return
+            left = remaining(record.work, record.required_indices(), set(record.done))
+            if not left:
+                await self._finish(record, MissionState.COMPLETED)
+            elif any(lg.state is LegState.FAILED for lg in record.legs):
+                failed = next(lg for lg in reversed(record.legs) if lg.state is LegState.FAILED)
+                await self._finish(record, MissionState.FAILED, failed.error or "a leg failed")
+
+    async def _finish(
+        self, record: MissionRecord, state: MissionState, error: str | None = None
+    ) -> None:
+        record.state = state
+        record.ended_at = time.time()
+        record.error = error
+        await self.save(record)
+        await self.store.save_log(record.mission_id, build_log(record))
+        self.emit("mission", **record.summary())
+        log.info("mission %s %s", record.mission_id, state.value)
+
+    # -- alarms ------------------------------------------------------------------------------
+    async def _on_alarm(self, topic_name: str, payload: bytes) -> None:
+        try:
+            alarm = decode_object(payload)
+            drone_id, level = str(alarm["drone_id"]), str(alarm["level"])
+        except (MessageError, KeyError) as exc:
+            log.warning("dropping alarm on %s: %s", topic_name, exc)
+            return
+        async with self._lock:
+            record, leg = self._mission_of(drone_id, alarm.get("mission_id"))
+            if record is None or leg is None:
+                self.emit("alarm", **alarm)
+                return
+            if any(a.get("timestamp") == alarm.get("timestamp") for a in record.alarms):
+                return  # duplicate delivery
+            record.alarms.append(alarm)
+            index = (
+                leg.global_index(int(alarm["step_index"]))
+                if alarm.get("step_index") is not None
+                else None
+            )
+            if index is not None and record.work[index].get("command") == "virtualalarm":
+                record.done.setdefault(index, drone_id)
+            await self.save(record)
+        self.emit("alarm", **{**alarm, "mission_id": record.mission_id})
+        from dronefleet.ground.planner import collaboration, replacement
+
+        if level == "CRITICAL" and record.options.get("replacement", True):
+            self.spawn(replacement.replace(self, record, leg, alarm), f"replace:{drone_id}")
+        elif level == "OUT_MEASURE" and record.options.get("collaboration", True):
+            self.spawn(collaboration.extend(self, record, leg, alarm), f"extend:{drone_id}")
+
+    def _mission_of(self, drone_id: str, leg_id: Any) -> tuple[MissionRecord | None, Leg | None]:
+        mission_id = self._legs.get(str(leg_id)) if leg_id else None
+        records = [self.missions[mission_id]] if mission_id else list(self.missions.values())
+        for record in records:
+            if record.terminal:
+                continue
+            leg = record.leg(str(leg_id)) if leg_id else None
+            leg = leg if leg is not None and leg.active else record.leg_of(drone_id)
+            if leg is not None and leg.drone_id == drone_id:
+                return record, leg
+        return None, None
+
+    # -- paths -------------------------------------------------------------------------------
+    async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
+        drone_id = topic_name.split("/", 1)[0]
+        try:
+            msg = decode_object(payload)
+            fields = msg["fields"]
+            if "battery_pct" in fields and "lat" in fields:
+                self.latest[drone_id] = {**fields, "vehicle_time_s": msg.get("vehicle_time_s")}
+        except (MessageError, KeyError, TypeError):
+            return
+        record, _leg = self._mission_of(drone_id, None)
+        if record is None:
+            return
+        try:
+            position = {
+                "lat": fields["lat"],
+                "lon": fields["lon"],
+                "relative_alt_m": fields.get("relative_alt_m", 0.0),
+            }
+        except (MessageError, KeyError, TypeError):
+            return
+        if self._path_point(record, drone_id, msg.get("vehicle_time_s"), position):
+            self._dirty.add(record.mission_id)
+
+    def _path_point(self, record: MissionRecord, drone_id: str, t: Any, position: Any) -> bool:
+        if not isinstance(position, dict) or not isinstance(t, int | float):
+            return False
+        path = record.paths.setdefault(drone_id, [])
+        if path and t - path[-1][0] < PATH_SAMPLE_S:
+            return False
+        path.append(
+            [
+                round(t, 2),
+                position["lat"],
+                position["lon"],
+                round(position.get("relative_alt_m") or 0.0, 2),
+            ]
+        )
+        return True
+
+    async def _flush_paths(self) -> None:
+        while True:
+            await asyncio.sleep(2.0)
+            for mission_id in list(self._dirty):
+                with contextlib.suppress(Exception):
+                    await self.save(self.missions[mission_id])

@@ -1,0 +1,80 @@
+"""Durable mission state (DESIGN.md §7): every mission record and every mission log.
+
+Kept in the ground state store's SQLite file, so restarting the planner mid-mission loses nothing:
+the records are reloaded and tracking carries on.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+from typing import Any
+
+import orjson
+
+from dronefleet.ground.planner.models import MissionRecord
+from dronefleet.ground.state import StateStore
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS missions (
+    mission_id TEXT PRIMARY KEY,
+    state TEXT NOT NULL,
+    record BLOB NOT NULL,
+    updated_at REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS mission_logs (
+    mission_id TEXT PRIMARY KEY,
+    log BLOB NOT NULL,
+    written_at REAL NOT NULL
+);
+"""
+
+
+class MissionStore:
+    def __init__(self, state: StateStore) -> None:
+        self.state = state
+
+    async def open(self) -> MissionStore:
+        await self.state.run(lambda db: db.executescript(_SCHEMA))
+        return self
+
+    async def save(self, record: MissionRecord) -> None:
+        blob = orjson.dumps(record.model_dump(mode="json"))
+
+        def write(db: sqlite3.Connection) -> None:
+            db.execute(
+                "INSERT INTO missions (mission_id, state, record, updated_at) VALUES (?, ?, ?, ?) "
+                "ON CONFLICT(mission_id) DO UPDATE SET state=excluded.state, "
+                "record=excluded.record, updated_at=excluded.updated_at",
+                (record.mission_id, record.state.value, blob, time.time()),
+            )
+            db.commit()
+
+        await self.state.run(write)
+
+    async def load_all(self) -> list[MissionRecord]:
+        rows = await self.state.run(
+            lambda db: db.execute("SELECT record FROM missions ORDER BY updated_at").fetchall()
+        )
+        return [MissionRecord.model_validate(orjson.loads(r[0])) for r in rows]
+
+    async def save_log(self, mission_id: str, log: dict[str, Any]) -> None:
+        blob = orjson.dumps(log)
+
+        def write(db: sqlite3.Connection) -> None:
+            db.execute(
+                "INSERT OR REPLACE INTO mission_logs (mission_id, log, written_at) "
+                "VALUES (?, ?, ?)",
+                (mission_id, blob, time.time()),
+            )
+            db.commit()
+
+        await self.state.run(write)
+
+    async def load_log(self, mission_id: str) -> dict[str, Any] | None:
+        row = await self.state.run(
+            lambda db: db.execute(
+                "SELECT log FROM mission_logs WHERE mission_id = ?", (mission_id,)
+            ).fetchone()
+        )
+        return orjson.loads(row[0]) if row else None

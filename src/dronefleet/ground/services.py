@@ -1,0 +1,180 @@
+"""All ground services in one process (seed Fig. 3.7 minus the Mission Planner).
+
+:class:`GroundServices` starts the state store, the Drone Identifier, the Telemetry Analyzer's
+connector and store, and the Drone Manager (gateway, live stream hub, HTTP server). Each component
+keeps its own broker connection and talks to the others only through the ground broker.
+``dronefleet ground`` and ``dronefleet demo`` both use it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import secrets
+from pathlib import Path
+from typing import Any
+
+import uvicorn
+
+from dronefleet.ground.identifier import DroneIdentifier
+from dronefleet.ground.manager.app import create_app
+from dronefleet.ground.manager.auth import Role, TokenBook
+from dronefleet.ground.manager.context import ManagerContext
+from dronefleet.ground.manager.gateway import DroneGateway
+from dronefleet.ground.manager.stream import StreamHub
+from dronefleet.ground.planner.service import MissionPlanner
+from dronefleet.ground.state import StateStore
+from dronefleet.ground.telemetry.connector import TelemetryConnector
+from dronefleet.ground.telemetry.store import TelemetryStore, open_store
+from dronefleet.messaging.embedded import free_port
+from dronefleet.messaging.url import BrokerUrl
+
+log = logging.getLogger(__name__)
+
+STOP_TIMEOUT_S = 3.0
+
+
+class GroundServices:
+    """``await GroundServices(...).start()``; then ``http_url`` and ``operator_token``."""
+
+    def __init__(
+        self,
+        broker_url: str | BrokerUrl,
+        *,
+        store_url: str = "sqlite:///dronefleet-telemetry.db",
+        state_path: str | Path = "dronefleet-ground.db",
+        http_host: str = "127.0.0.1",
+        http_port: int = 8080,
+        token: str | None = None,
+        admin_token: str | None = None,
+        command_timeout_s: float = 30.0,
+        serve_http: bool = True,
+        planner_client_id: str = "ground-planner",
+    ) -> None:
+        self.broker_url = (
+            broker_url if isinstance(broker_url, BrokerUrl) else BrokerUrl.parse(broker_url)
+        )
+        self.store_url = store_url
+        self.state_path = str(state_path)
+        self.http_host = http_host
+        self.http_port = http_port or free_port(http_host)
+        self.command_timeout_s = command_timeout_s
+        self.serve_http = serve_http
+        self.planner_client_id = planner_client_id
+        self._given_token = token
+        self._given_admin_token = admin_token
+        self.operator_token: str | None = None
+        self.admin_token: str | None = None
+        self.state: StateStore | None = None
+        self.telemetry: TelemetryStore | None = None
+        self.identifier: DroneIdentifier | None = None
+        self.connector: TelemetryConnector | None = None
+        self.gateway: DroneGateway | None = None
+        self.hub: StreamHub | None = None
+        self.planner: MissionPlanner | None = None
+        self.app: Any = None
+        self._server: uvicorn.Server | None = None
+        self._serve_task: asyncio.Task[None] | None = None
+        self._started: list[Any] = []
+
+    @property
+    def http_url(self) -> str:
+        return f"http://{self.http_host}:{self.http_port}"
+
+    async def start(self) -> GroundServices:
+        try:
+            await self._start()
+        except BaseException:
+            await self.stop()
+            raise
+        return self
+
+    async def _start(self) -> None:
+        suffix = secrets.token_hex(3)
+        self.state = await StateStore(self.state_path).open()
+        self._started.append(self.state)
+        tokens = TokenBook(self.state)
+        await self._tokens(tokens)
+
+        self.telemetry = open_store(self.store_url)
+        await self.telemetry.open()
+        self._started.append(self.telemetry)
+
+        url = self.broker_url
+        self.identifier = DroneIdentifier(url, self.state, client_id=f"ground-identifier-{suffix}")
+        self.connector = TelemetryConnector(
+            url, self.telemetry, client_id=f"ground-telemetry-{suffix}"
+        )
+        self.gateway = DroneGateway(
+            url, self.state, client_id=f"ground-manager-{suffix}", timeout_s=self.command_timeout_s
+        )
+        self.hub = StreamHub(url, client_id=f"ground-stream-{suffix}")
+        # The planner's broker session is persistent (QoS 1 progress queued while it is down), so
+        # its client id must be the same across restarts of the same ground.
+        self.planner = MissionPlanner(url, self.state, client_id=self.planner_client_id)
+        for service in (self.identifier, self.connector, self.gateway, self.hub, self.planner):
+            await service.start()
+            self._started.append(service)
+
+        ctx = ManagerContext(self.state, tokens, self.gateway, self.telemetry, self.hub)
+        self.app = create_app(ctx)
+        self.app.state.planner = self.planner
+        if self.serve_http:
+            await self._serve()
+
+    async def _tokens(self, tokens: TokenBook) -> None:
+        first_start = not await tokens.has_any()
+        if self._given_token:
+            self.operator_token = await tokens.issue("operator", Role.OPERATOR, self._given_token)
+        elif first_start:
+            self.operator_token = await tokens.issue("operator", Role.OPERATOR)
+        if self._given_admin_token:
+            self.admin_token = await tokens.issue("admin", Role.ADMIN, self._given_admin_token)
+        elif first_start:
+            self.admin_token = await tokens.issue("admin", Role.ADMIN)
+
+    async def _serve(self) -> None:
+        config = uvicorn.Config(
+            self.app,
+            host=self.http_host,
+            port=self.http_port,
+            log_level="warning",
+            lifespan="off",
+            ws="websockets-sansio",
+            timeout_graceful_shutdown=2,
+            timeout_keep_alive=2,
+        )
+        self._server = uvicorn.Server(config)
+        self._serve_task = asyncio.create_task(self._server.serve(), name="ground:http")
+        while not self._server.started:
+            if self._serve_task.done():
+                self._serve_task.result()  # raises the reason (e.g. port in use)
+                raise RuntimeError(f"HTTP server on {self.http_url} stopped at start")
+            await asyncio.sleep(0.02)
+
+    async def stop(self) -> None:
+        if self._server is not None and self._serve_task is not None:
+            self._server.should_exit = True
+            # asyncio.wait, not wait_for: a server that ignores cancellation must not hang us.
+            done, _ = await asyncio.wait({self._serve_task}, timeout=5.0)
+            if not done:
+                log.warning("HTTP server did not stop within 5 s; leaving it")
+                self._serve_task.cancel()
+            self._server = self._serve_task = None
+        while self._started:
+            service = self._started.pop()
+            closing = service.close() if hasattr(service, "close") else service.stop()
+            # A broker link that will not close must not keep the process from stopping.
+            task = asyncio.ensure_future(closing)
+            done, _ = await asyncio.wait({task}, timeout=STOP_TIMEOUT_S)
+            if not done:
+                log.warning("%s did not stop within %g s", type(service).__name__, STOP_TIMEOUT_S)
+                task.cancel()
+            elif task.exception() is not None:
+                log.error("stopping %s failed: %r", type(service).__name__, task.exception())
+
+    async def __aenter__(self) -> GroundServices:
+        return await self.start()
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.stop()

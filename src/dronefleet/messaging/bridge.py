@@ -1,0 +1,72 @@
+"""Mosquitto bridge configuration for a drone's Internal Broker (seed 4.3.2, Listing 4.3).
+
+The drone's Mosquitto pulls its own ``control``, ``mission`` and ``gear`` requests from the ground
+broker and pushes everything its components publish on ``+/<channel>/out`` to it. Beyond the
+listing, the file sets what a bridge to RabbitMQ's MQTT adapter needs (no Mosquitto-private
+protocol bit, no ``$SYS`` notifications) and a clean session, so a drone that restarts does not
+receive commands queued while it was away.
+"""
+
+from __future__ import annotations
+
+from dronefleet.messaging.topics import (
+    OUT_ONLY,
+    Channel,
+    Direction,
+    any_drone,
+    check_drone_id,
+    topic,
+)
+
+#: Channels the ground sends to the drone (pulled in by the bridge).
+IN_CHANNELS = (Channel.CONTROL, Channel.MISSION, Channel.GEAR)
+#: Channels the drone sends to the ground (pushed out by the bridge), in the listing's order.
+OUT_CHANNELS = (*IN_CHANNELS, *(c for c in Channel if c in OUT_ONLY))
+
+
+def _quote_free(name: str, value: str) -> str:
+    if not value or any(c.isspace() for c in value) or "#" in value:
+        raise ValueError(f"{name} must be non-empty, without spaces or '#': {value!r}")
+    return value
+
+
+def bridge_config(
+    drone_id: str,
+    ground_host: str,
+    ground_port: int = 1883,
+    *,
+    username: str | None = None,
+    password: str | None = None,
+    connection: str = "groundRelay",
+    listener: tuple[str, int] | None = None,
+    qos: int = 1,
+) -> str:
+    """The bridge section for ``drone_id`` (a full ``mosquitto.conf`` if ``listener`` is given)."""
+    check_drone_id(drone_id)
+    _quote_free("ground host", ground_host)
+    _quote_free("connection", connection)
+    if not 0 < ground_port < 65536:
+        raise ValueError(f"ground port out of range: {ground_port}")
+    lines = [f"# dronefleet bridge for drone {drone_id} (seed Listing 4.3)"]
+    if listener is not None:
+        host, port = listener
+        # Request/response is small-packet ping-pong: Nagle would add ~40 ms per hop.
+        lines += [f"listener {port} {host}", "allow_anonymous true", "set_tcp_nodelay true", ""]
+    lines += [f"connection {connection}", f"address {ground_host}:{ground_port}"]
+    if username:
+        lines.append(f"username {_quote_free('username', username)}")
+    if password:
+        lines.append(f"password {_quote_free('password', password)}")
+    lines += [
+        f"clientid droneMosquitto-{drone_id}",
+        "bridge_protocol_version mqttv311",
+        "try_private false",
+        "notifications false",
+        "cleansession true",
+        "start_type automatic",
+        "restart_timeout 1 10",
+        "keepalive_interval 10",
+    ]
+    lines += [f'topic {topic(drone_id, c, Direction.IN)} in {qos} "" ""' for c in IN_CHANNELS]
+    lines += [f'topic {any_drone(c)} out {qos} "" ""' for c in OUT_CHANNELS]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,79 @@
+"""Request/response over MQTT 3.1.1, as the seed does it (Fig. 4.34).
+
+Each request carries a ``request_id`` (16 random bytes, hex); the answer echoes it. A caller that
+hears nothing within its timeout gets :class:`RequestTimeout`, never a hang.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any
+
+from pydantic import BaseModel
+
+from dronefleet.messaging.client import QOS_COMMAND, BrokerClient
+from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.common import new_request_id
+
+log = logging.getLogger(__name__)
+
+
+class RequestTimeout(TimeoutError):
+    """No answer arrived in time."""
+
+
+class Requester:
+    """Sends requests and matches the answers by ``request_id``.
+
+    One subscription per reply pattern (e.g. ``+/control/out``) serves every request.
+    """
+
+    def __init__(self, client: BrokerClient) -> None:
+        self.client = client
+        self._pending: dict[str, asyncio.Future[dict[str, Any]]] = {}
+        self._patterns: set[str] = set()
+
+    async def _ensure(self, reply_pattern: str) -> None:
+        if reply_pattern not in self._patterns:
+            self._patterns.add(reply_pattern)
+            await self.client.subscribe(reply_pattern, self._on_reply, qos=QOS_COMMAND)
+
+    async def _on_reply(self, topic_name: str, payload: bytes) -> None:
+        try:
+            data = decode_object(payload)
+        except MessageError as exc:
+            log.warning("dropping malformed reply on %s: %s", topic_name, exc)
+            return
+        future = self._pending.get(str(data.get("request_id")))
+        if future is not None and not future.done():
+            future.set_result(data)
+
+    async def request(
+        self,
+        topic_name: str,
+        reply_pattern: str,
+        message: BaseModel | dict[str, Any],
+        *,
+        timeout_s: float = 10.0,
+    ) -> dict[str, Any]:
+        """Publish ``message`` with a fresh ``request_id`` and return the matching answer."""
+        await self._ensure(reply_pattern)
+        data = (
+            message.model_dump(mode="json", exclude_none=True)
+            if isinstance(message, BaseModel)
+            else dict(message)
+        )
+        request_id = data.get("request_id") or new_request_id()
+        data["request_id"] = request_id
+        future: asyncio.Future[dict[str, Any]] = asyncio.get_running_loop().create_future()
+        self._pending[request_id] = future
+        try:
+            await self.client.publish(topic_name, data, qos=QOS_COMMAND, timeout_s=timeout_s)
+            return await asyncio.wait_for(future, timeout_s)
+        except TimeoutError as exc:
+            raise RequestTimeout(
+                f"no answer on {reply_pattern} to request {request_id} within {timeout_s:g} s"
+            ) from exc
+        finally:
+            self._pending.pop(request_id, None)

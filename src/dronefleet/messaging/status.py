@@ -1,0 +1,67 @@
+"""What a drone says without being asked: heartbeats, alarms, telemetry."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from typing import Any
+
+from pydantic import Field
+
+from dronefleet.messaging.commands import AlarmLevel
+from dronefleet.messaging.common import Message, Position, wall_time
+
+
+class FlightState(StrEnum):
+    DISARMED = "disarmed"
+    ARMING = "arming"
+    ARMED = "armed"  # armed, on the ground
+    TAKING_OFF = "taking_off"
+    FLYING = "flying"
+    LANDING = "landing"
+
+
+class BatteryStatus(Message):
+    remaining_pct: float = Field(ge=0, le=100)
+    voltage_v: float = Field(ge=0)
+    current_a: float | None = None
+    consumed_mah: float | None = None
+
+
+class Heartbeat(Message):
+    """Sent every 5 s (vehicle time) on ``<id>/heartbeats/out``."""
+
+    drone_id: str
+    timestamp: float = Field(default_factory=wall_time)
+    vehicle_time_s: float
+    interval_s: float = 5.0
+    position: Position
+    home: Position | None = None
+    battery: BatteryStatus
+    state: FlightState
+    mode: str
+    mission_id: str | None = None
+    step_index: int | None = None
+
+
+class Alarm(Message):
+    """Sent once per crossing on ``<id>/alarms/out``."""
+
+    drone_id: str
+    level: AlarmLevel
+    message: str = ""
+    position: Position
+    reading: dict[str, Any] | None = None
+    mission_id: str | None = None
+    step_index: int | None = None
+    virtual: bool = False
+    vehicle_time_s: float
+    timestamp: float = Field(default_factory=wall_time)
+
+
+class Telemetry(Message):
+    """Numeric flight data on ``<id>/telemetry/out`` (a flat field map, ready for a time series)."""
+
+    drone_id: str
+    timestamp: float = Field(default_factory=wall_time)
+    vehicle_time_s: float
+    fields: dict[str, float]

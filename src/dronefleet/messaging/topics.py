@@ -1,0 +1,91 @@
+"""The seed's topics (Table 4.4), built in one place.
+
+``<drone_id>/{control,mission,gear}/{in,out}`` and ``<drone_id>/{heartbeats,alarms,telemetry}/out``.
+Ground-internal topics live under ``ground/...``. Call sites never paste topic strings together.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from enum import StrEnum
+
+
+class Channel(StrEnum):
+    CONTROL = "control"
+    MISSION = "mission"
+    GEAR = "gear"
+    HEARTBEATS = "heartbeats"
+    ALARMS = "alarms"
+    TELEMETRY = "telemetry"
+
+
+class Direction(StrEnum):
+    IN = "in"  # towards the drone
+    OUT = "out"  # from the drone
+
+
+#: Channels that only flow out of the drone.
+OUT_ONLY = frozenset({Channel.HEARTBEATS, Channel.ALARMS, Channel.TELEMETRY})
+
+#: A drone id: letters, digits, '_', '-', '.'; never an MQTT wildcard or separator.
+DRONE_ID_RE = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
+
+GROUND_PREFIX = "ground"
+
+
+class TopicError(ValueError):
+    """A topic or drone id that does not fit the seed's scheme."""
+
+
+def check_drone_id(drone_id: str) -> str:
+    if (
+        not isinstance(drone_id, str)
+        or not DRONE_ID_RE.match(drone_id)
+        or drone_id == GROUND_PREFIX
+    ):
+        raise TopicError(
+            f"invalid drone id {drone_id!r}: use 1-64 letters, digits, '_', '-' or '.'"
+        )
+    return drone_id
+
+
+def topic(drone_id: str, channel: Channel, direction: Direction) -> str:
+    """The topic of one drone's channel, e.g. ``topic("QUAD_1", Channel.CONTROL, Direction.IN)``."""
+    if channel in OUT_ONLY and direction is Direction.IN:
+        raise TopicError(f"channel {channel} only flows out of the drone")
+    return f"{check_drone_id(drone_id)}/{channel}/{direction}"
+
+
+def any_drone(channel: Channel, direction: Direction = Direction.OUT) -> str:
+    """Subscription pattern for one channel of every drone, e.g. ``+/telemetry/out``."""
+    return f"+/{channel}/{direction}"
+
+
+def drone_all(drone_id: str) -> str:
+    """Subscription pattern for every topic of one drone (what the Logger listens to)."""
+    return f"{check_drone_id(drone_id)}/#"
+
+
+def ground(*parts: str) -> str:
+    """A ground-internal topic, e.g. ``ground("identifier", "in")``."""
+    return "/".join((GROUND_PREFIX, *parts))
+
+
+@dataclass(frozen=True)
+class DroneTopic:
+    drone_id: str
+    channel: Channel
+    direction: Direction
+
+
+def parse(topic_name: str) -> DroneTopic:
+    """Split a drone topic into its parts; raise :class:`TopicError` if it is not one."""
+    parts = topic_name.split("/")
+    if len(parts) != 3:
+        raise TopicError(f"not a drone topic: {topic_name!r}")
+    drone_id, channel, direction = parts
+    try:
+        return DroneTopic(check_drone_id(drone_id), Channel(channel), Direction(direction))
+    except ValueError as exc:
+        raise TopicError(f"not a drone topic: {topic_name!r}") from exc

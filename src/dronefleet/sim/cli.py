@@ -1,0 +1,114 @@
+"""``dronefleet sim``: serve simulated vehicles to other processes over MAVLink (or UAVTalk).
+
+``dronefleet sim --count 3 --mavlink udp:127.0.0.1:14550`` flies three ArduPilot-Copter-like
+vehicles in one sim world; vehicle ``i`` has system id ``i+1`` and listens on port ``14550+i``.
+Connect the drone software with ``dronefleet drone --fc mavlink --fc-url udpout:127.0.0.1:14550``
+or a ground station (QGroundControl, MAVProxy) to the same ports.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import signal
+import sys
+from pathlib import Path
+
+from dronefleet.drone.cli import DEFAULT_HOME, parse_lla, parse_plume
+
+
+def parse_udp(text: str) -> tuple[str, int]:
+    """``udp:HOST:PORT`` (also ``udpin:``) → (host, base port)."""
+    scheme, _, rest = text.partition(":")
+    host, _, port = rest.rpartition(":")
+    if scheme not in ("udp", "udpin") or not host or not port.isdigit():
+        raise argparse.ArgumentTypeError(f"expected udp:HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "sim", help="serve simulated vehicles over MAVLink (ArduPilot Copter compatible)"
+    )
+    p.add_argument("--count", type=int, default=1, help="how many vehicles to simulate")
+    p.add_argument(
+        "--mavlink",
+        type=parse_udp,
+        default=parse_udp("udp:127.0.0.1:14550"),
+        help="udp:HOST:PORT of the first vehicle; vehicle i listens on PORT+i",
+    )
+    p.add_argument("--home", type=parse_lla, default=parse_lla(DEFAULT_HOME), help="LAT,LON,ALT")
+    p.add_argument("--spacing-m", type=float, default=15.0, help="distance between homes")
+    p.add_argument("--speedup", type=float, default=1.0, help="vehicle seconds per wall second")
+    p.add_argument("--battery-pct", type=float, default=100.0, help="initial charge")
+    p.add_argument(
+        "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"
+    )
+    p.add_argument("--pictures", type=Path, help="write each picture taken as a JPEG here")
+    p.add_argument(
+        "--uavtalk",
+        metavar="tcp:HOST:PORT",
+        help="serve the vehicles over UAVTalk (the seed's protocol) instead; vehicle i on PORT+i",
+    )
+    from dronefleet.sim.uavtalk.cli import add_arguments as uavtalk_arguments
+
+    uavtalk_arguments(p)  # adds what UAVTalk needs beyond the options above (--id-prefix)
+    p.set_defaults(func=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.count < 1:
+        print("dronefleet sim: --count must be at least 1", file=sys.stderr)
+        return 2
+    if args.speedup <= 0:
+        print("dronefleet sim: --speedup must be positive", file=sys.stderr)
+        return 2
+    if args.uavtalk:
+        from dronefleet.sim.uavtalk.cli import serve as serve_uavtalk
+
+        with contextlib.suppress(KeyboardInterrupt):
+            asyncio.run(serve_uavtalk(args))
+        return 0
+    try:
+        return asyncio.run(_serve(args))
+    except OSError as exc:
+        print(f"dronefleet sim: cannot open the MAVLink ports: {exc}", file=sys.stderr)
+        return 1
+
+
+async def _serve(args: argparse.Namespace) -> int:
+    from dronefleet.sim.mavlink.server import fleet_server
+
+    host, base_port = args.mavlink
+    server = fleet_server(
+        args.count,
+        home=args.home,
+        spacing_m=args.spacing_m,
+        speedup=args.speedup,
+        host=host,
+        base_port=base_port,
+        battery_pct=args.battery_pct,
+        plumes=args.plume,
+        pictures_dir=args.pictures,
+    )
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError):
+            loop.add_signal_handler(sig, stop.set)
+    async with server:
+        for ep in server.endpoints:
+            home = ep.copter.vehicle.home
+            print(
+                f"vehicle {ep.system_id} on {ep.url} at {home.lat:.6f},{home.lon:.6f},"
+                f"{home.alt_m:g}",
+                flush=True,
+            )
+        print(
+            f"sim ready: {args.count} vehicle(s) over MAVLink from udp:{host}:{base_port}"
+            f" at {args.speedup:g}x",
+            flush=True,
+        )
+        await stop.wait()
+    return 0

@@ -1,0 +1,257 @@
+"""ArduPilot Copter's flight modes on a simulated vehicle: what our MAVLink endpoint flies.
+
+The :class:`~dronefleet.sim.vehicle.SimVehicle` knows targets, arming and landing; this layer adds
+what an ArduPilot Copter does on top (the autopilot of the seed's Flight Controller, now over
+MAVLink, seed 6.2.4): mode numbers and which commands each mode accepts (takeoff only in GUIDED
+and armed, position targets only in GUIDED, no arming in AUTO/RTL/LAND), RTL (climb to RTL_ALT,
+fly home, land), BRAKE/LOITER holds, the battery failsafe's switch to LAND, and AUTO, which flies
+the mission on board (:mod:`.auto`) whether or not anyone is listening. Refusals raise
+:class:`Refused` with the text the endpoint sends as STATUSTEXT before the COMMAND_ACK.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from typing import Any
+
+from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.drone.fc.mavlink.items import MissionItem
+from dronefleet.drone.fc.mavlink.modes import CopterMode
+from dronefleet.geo.types import NED
+from dronefleet.sim.camera import SimCamera
+from dronefleet.sim.mavlink.auto import MissionRunner
+from dronefleet.sim.mavlink.params import ParamTable
+from dronefleet.sim.vehicle import SimVehicle, VehicleError
+
+log = logging.getLogger(__name__)
+
+#: Modes ArduPilot refuses to arm in (Mode::allows_arming()).
+_NOT_ARMABLE = {CopterMode.AUTO, CopterMode.RTL, CopterMode.SMART_RTL, CopterMode.LAND}
+#: Modes that hold position in the air without pilot input here (no RC in the sim).
+_HOLDING = {
+    CopterMode.STABILIZE, CopterMode.ALT_HOLD, CopterMode.LOITER, CopterMode.POSHOLD,
+    CopterMode.BRAKE, CopterMode.ACRO, CopterMode.SPORT, CopterMode.CIRCLE,
+}  # fmt: skip
+_ARRIVED_M = 1.0
+
+
+class Refused(Exception):
+    """A command the autopilot refuses; ``reason`` goes out as STATUSTEXT (None: silent)."""
+
+    def __init__(self, reason: str | None, result: int = mav.MAV_RESULT_FAILED) -> None:
+        super().__init__(reason or "refused")
+        self.reason = reason
+        self.result = result
+
+
+class CopterEvents:
+    """What the copter tells the ground; the endpoint overrides these to send messages."""
+
+    def statustext(self, severity: int, text: str) -> None:
+        log.info("copter says: %s", text)
+
+    def mission_current(self, seq: int) -> None: ...
+
+    def item_reached(self, seq: int) -> None: ...
+
+    def captured(self, info: dict[str, Any]) -> None: ...
+
+
+class SimCopter:
+    """One simulated ArduPilot Copter: mode logic over a :class:`SimVehicle`."""
+
+    def __init__(
+        self,
+        vehicle: SimVehicle,
+        *,
+        camera: SimCamera | None = None,
+        params: ParamTable | None = None,
+        events: CopterEvents | None = None,
+    ) -> None:
+        self.vehicle = vehicle
+        self.camera = camera
+        self.params = params or ParamTable()
+        self.params.on_change(self._param_changed)
+        self.events = events or CopterEvents()
+        self.mode = CopterMode.STABILIZE
+        self.mission: list[MissionItem] = []
+        self.runner = MissionRunner(self)
+        self.boot_epoch_s = vehicle.time_s
+        self._rtl_phase: str | None = None
+        self._rtl_alt_m = 0.0
+        self._failsafe_noted = False
+        self._was_rebooting = False
+        self.picture_count = 0
+
+    # -- time ---------------------------------------------------------------------------------
+    def boot_ms(self) -> int:
+        return max(0, int((self.vehicle.time_s - self.boot_epoch_s) * 1000))
+
+    # -- modes --------------------------------------------------------------------------------
+    def set_mode(self, number: int) -> None:
+        try:
+            mode = CopterMode(number)
+        except ValueError:
+            raise Refused(f"Mode change failed: no mode {number}") from None
+        v = self.vehicle
+        if mode is CopterMode.AUTO and len(self.mission) <= 1:
+            raise Refused("Mode change to AUTO failed: no mission")
+        if mode is CopterMode.GUIDED_NOGPS or mode is CopterMode.THROW:
+            raise Refused(f"Mode change to {mode.name} failed: not supported by the sim")
+        self._leave_mode()
+        self.mode = mode
+        if not v.in_air or v.falling:
+            if mode is CopterMode.AUTO and v.armed:
+                self.runner.start()
+            return
+        if mode is CopterMode.LAND:
+            v.land()
+        elif mode in (CopterMode.RTL, CopterMode.SMART_RTL):
+            self.start_rtl()
+        elif mode is CopterMode.AUTO:
+            self.runner.start()
+        else:  # GUIDED starts by holding where it is, like the hold modes
+            v.hold()
+
+    def _leave_mode(self) -> None:
+        self.runner.stop()
+        self._rtl_phase = None
+
+    # -- commands -----------------------------------------------------------------------------
+    def arm(self, force: bool = False) -> None:
+        v = self.vehicle
+        if v.armed or v.arming:
+            return
+        if self.mode in _NOT_ARMABLE and not force:
+            raise Refused("Arm: Mode not armable")
+        try:
+            v.arm()
+        except VehicleError as exc:
+            raise Refused("Arm: " + _reason(exc, v)) from None
+
+    def disarm(self, force: bool = False) -> None:
+        try:
+            self.vehicle.disarm(force=force)
+        except VehicleError as exc:
+            raise Refused("Disarm: " + _reason(exc, self.vehicle)) from None
+        if not self.vehicle.in_air or force:
+            self._leave_mode()
+
+    def takeoff(self, altitude_m: float) -> None:
+        v = self.vehicle
+        if self.mode is not CopterMode.GUIDED:
+            raise Refused(f"Takeoff: not in GUIDED mode (in {self.mode.name})")
+        if not v.armed:
+            raise Refused("Takeoff: not armed")
+        if v.in_air:
+            raise Refused("Takeoff: already flying")
+        try:
+            v.takeoff(altitude_m)
+        except VehicleError as exc:
+            raise Refused("Takeoff: " + _reason(exc, v)) from None
+
+    def guided_target(self, target: NED) -> None:
+        v = self.vehicle
+        if self.mode is not CopterMode.GUIDED:
+            raise Refused(f"Guided: not in GUIDED mode (in {self.mode.name})")
+        try:
+            v.goto(target)
+        except VehicleError as exc:
+            raise Refused("Guided: " + _reason(exc, v)) from None
+
+    def reboot(self, force: bool) -> None:
+        v = self.vehicle
+        if v.armed and not force:
+            raise Refused("Reboot: vehicle is armed; disarm first")
+        self._leave_mode()
+        self.mode = CopterMode.STABILIZE
+        v.reboot(force=True)
+
+    def take_picture(self) -> dict[str, Any] | None:
+        if self.camera is None:
+            return None
+        info = self.camera.capture()
+        self.picture_count = self.camera.count
+        self.events.captured(info)
+        return info
+
+    # -- RTL ----------------------------------------------------------------------------------
+    def start_rtl(self) -> None:
+        """Climb to RTL_ALT (if lower), fly home, land (Copter's RTL)."""
+        v = self.vehicle
+        self._rtl_alt_m = max(self.params.get("RTL_ALT") / 100.0, v.relative_alt_m)
+        here = v.position_ned
+        v.goto(NED(here.n, here.e, -self._rtl_alt_m))
+        self._rtl_phase = "climb"
+
+    def _rtl_step(self) -> bool:
+        """Advance RTL; True once landed."""
+        v = self.vehicle
+        if not v.in_air:
+            self._rtl_phase = None
+            return True
+        target = v.target_ned
+        arrived = target is not None and (target - v.position_ned).norm_m < _ARRIVED_M
+        if self._rtl_phase == "climb" and arrived:
+            v.goto(NED(0.0, 0.0, -self._rtl_alt_m))
+            self._rtl_phase = "return"
+        elif self._rtl_phase == "return" and arrived:
+            v.land()
+            self._rtl_phase = "land"
+        return False
+
+    # -- the loop -----------------------------------------------------------------------------
+    def update(self) -> None:
+        """One look at the vehicle (called every physics step or so by the endpoint)."""
+        v = self.vehicle
+        if v.rebooting:
+            self._was_rebooting = True
+            return
+        if self._was_rebooting:  # back from a reboot: time_boot_ms starts again at zero
+            self._was_rebooting = False
+            self.boot_epoch_s = v.time_s
+        if v.battery_failsafe and not self._failsafe_noted:
+            self._failsafe_noted = True
+            pct = v.battery_state.remaining_pct
+            self.events.statustext(mav.MAV_SEVERITY_CRITICAL, f"Battery failsafe {pct:.0f}%: LAND")
+            if v.landing and self.mode is not CopterMode.LAND:
+                self._leave_mode()
+                self.mode = CopterMode.LAND
+        if self._rtl_phase is not None and self.mode in (CopterMode.RTL, CopterMode.SMART_RTL):
+            self._rtl_step()
+        elif self.mode is CopterMode.AUTO:
+            if v.armed and not self.runner.running and not self.runner.finished:
+                self.runner.start()
+            self.runner.update()
+
+    def rtl_step_for_mission(self) -> bool:
+        """RTL as a mission item (the runner calls this): True once landed."""
+        if self._rtl_phase is None:
+            if not self.vehicle.in_air:
+                return True
+            self.start_rtl()
+        return self._rtl_step()
+
+    def _param_changed(self, name: str, value: float) -> None:
+        v = self.vehicle
+        limits = v.limits
+        if name == "WPNAV_SPEED" and value > 0:
+            v.limits = replace(limits, max_speed_mps=value / 100.0)
+        elif name == "WPNAV_SPEED_UP" and value > 0:
+            v.limits = replace(limits, max_climb_mps=value / 100.0)
+        elif name == "WPNAV_SPEED_DN" and value > 0:
+            v.limits = replace(limits, max_descent_mps=value / 100.0)
+        elif name == "WPNAV_ACCEL" and value > 0:
+            v.limits = replace(limits, accel_mps2=value / 100.0)
+
+    def on_mission_replaced(self, items: list[MissionItem]) -> None:
+        self.mission = items
+        self.runner.reset()
+
+
+def _reason(exc: Exception, vehicle: SimVehicle) -> str:
+    """The vehicle's refusal without its id prefix (the ground knows which vehicle it asked)."""
+    text = str(exc)
+    prefix = f"{vehicle.vehicle_id}: "
+    return text[len(prefix) :] if text.startswith(prefix) else text

@@ -1,0 +1,110 @@
+// The web app's shell: sign-in, the page router (#/fleet, #/control, ...), the live stream.
+import { api, getToken, setToken, Stream } from "./api.js";
+import { Fleet } from "./fleet.js";
+import { toast } from "./ui.js";
+
+const PAGES = {
+  fleet: () => import("./pages/fleet.js"),
+  control: () => import("./pages/control.js"),
+  planner: () => import("./pages/planner.js"),
+  telemetry: () => import("./pages/telemetry.js"),
+  replay: () => import("./pages/replay.js"),
+  call: () => import("./pages/call.js"),
+};
+
+const ctx = { fleet: new Fleet(), me: null, listeners: new Set() };
+let current = null;
+let stream = null;
+
+/** Pages subscribe to raw stream messages with ctx.onStream(fn) → unsubscribe(). */
+ctx.onStream = (fn) => {
+  ctx.listeners.add(fn);
+  return () => ctx.listeners.delete(fn);
+};
+
+function onMessage(msg) {
+  ctx.fleet.onStream(msg);
+  if (msg.kind === "alarm") {
+    const d = msg.data || {};
+    toast(`alarm from ${msg.drone_id}: ${d.level || ""} ${d.message || d.alarm || JSON.stringify(d)}`, "error");
+  } else if (msg.kind === "fleet" && msg.data && msg.data.event === "lost") {
+    toast(`drone ${msg.drone_id} lost: no heartbeat`, "error");
+  }
+  for (const fn of ctx.listeners) fn(msg);
+}
+
+function setLink(state) {
+  const node = document.getElementById("link-state");
+  node.textContent = state === "live" ? "live" : state;
+  node.dataset.state = state;
+  if (state === "live") ctx.fleet.refresh();
+  if (state === "unauthorized") askToken("The token was refused.");
+}
+
+async function route() {
+  const name = (location.hash.replace(/^#\/?/, "").split("?")[0] || "fleet").toLowerCase();
+  const page = PAGES[name] ? name : "fleet";
+  document.body.dataset.page = page;
+  for (const a of document.querySelectorAll("nav a")) {
+    if (a.dataset.page === page) a.setAttribute("aria-current", "page");
+    else a.removeAttribute("aria-current");
+  }
+  if (current) current();
+  current = null;
+  const root = document.getElementById("page");
+  root.replaceChildren();
+  const module = await PAGES[page]();
+  current = (await module.mount(root, ctx)) || null;
+}
+
+function askToken(message) {
+  const dialog = document.getElementById("login");
+  document.getElementById("login-error").textContent = message || "";
+  if (!dialog.open) dialog.showModal();
+}
+
+async function signIn(token) {
+  setToken(token);
+  try {
+    ctx.me = await api("/web/me");
+  } catch (err) {
+    setToken(null);
+    askToken(err.status === 401 ? "Unknown token." : err.message);
+    return false;
+  }
+  document.body.classList.toggle("viewer", !ctx.me.can_command);
+  return true;
+}
+
+async function start() {
+  document.getElementById("login-form").addEventListener("submit", async (event) => {
+    event.preventDefault();
+    const token = document.getElementById("login-token").value.trim();
+    if (await signIn(token)) {
+      document.getElementById("login").close();
+      boot();
+    }
+  });
+  document.getElementById("logout").addEventListener("click", () => {
+    setToken(null);
+    location.reload();
+  });
+  const fromUrl = new URLSearchParams(location.search).get("token");
+  if (fromUrl) {
+    history.replaceState(null, "", location.pathname + location.hash);
+    if (await signIn(fromUrl)) return boot();
+  }
+  if (getToken() && (await signIn(getToken()))) return boot();
+  askToken();
+}
+
+function boot() {
+  if (stream) return;
+  ctx.fleet.addEventListener("unauthorized", () => askToken("The token was refused."));
+  ctx.fleet.start();
+  stream = new Stream(onMessage, setLink);
+  window.addEventListener("hashchange", route);
+  route();
+}
+
+start();

@@ -1,0 +1,83 @@
+// Leaflet maps that work offline: a plain grid with a scale bar under the (optional) tiles.
+const L = window.L;
+export const DEFAULT_CENTER = [40.63, -8.659];
+const COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2"];
+const STATE_COLORS = { flying: "#2a7de1", armed: "#e1a12a", disarmed: "#6b7280", landing: "#8e44ad", lost: "#d62728" };
+
+let configPromise = null;
+
+/** The server's web config ({tiles}), fetched once. */
+export function webConfig() {
+  if (!configPromise) {
+    configPromise = fetch("/api/v1/web/config").then((r) => r.json()).catch(() => ({ tiles: null }));
+  }
+  return configPromise;
+}
+
+/** A canvas grid: a line every 64 px, darker every 256 px; the scale bar gives the metres. */
+const GridLayer = L.GridLayer.extend({
+  createTile(coords) {
+    const tile = document.createElement("canvas");
+    const size = this.getTileSize();
+    tile.width = size.x;
+    tile.height = size.y;
+    const g = tile.getContext("2d");
+    g.fillStyle = "#f4f6f8";
+    g.fillRect(0, 0, size.x, size.y);
+    g.strokeStyle = "#dde2e7";
+    g.lineWidth = 1;
+    for (let p = 64; p < size.x; p += 64) {
+      g.beginPath(); g.moveTo(p + 0.5, 0); g.lineTo(p + 0.5, size.y); g.stroke();
+      g.beginPath(); g.moveTo(0, p + 0.5); g.lineTo(size.x, p + 0.5); g.stroke();
+    }
+    g.strokeStyle = "#b8c0c8";
+    g.strokeRect(0.5, 0.5, size.x, size.y);
+    return tile;
+  },
+});
+
+/** A map in `element`; resolves once the tile/grid decision is made. */
+export async function makeMap(element, { center = DEFAULT_CENTER, zoom = 18 } = {}) {
+  const map = L.map(element, { center, zoom, maxZoom: 22, attributionControl: false });
+  new GridLayer({ maxZoom: 22, zIndex: 0 }).addTo(map);
+  L.control.scale({ imperial: false, maxWidth: 150 }).addTo(map);
+  const { tiles } = await webConfig();
+  if (tiles) {
+    const layer = L.tileLayer(tiles, { maxZoom: 22, maxNativeZoom: 19, zIndex: 1 });
+    let loaded = 0;
+    let failed = 0;
+    layer.on("tileload", () => { loaded += 1; });
+    layer.on("tileerror", () => {
+      failed += 1;
+      if (failed >= 4 && loaded === 0) map.removeLayer(layer); // offline: keep the grid only
+    });
+    layer.addTo(map);
+  }
+  element.dataset.ready = "1";
+  return map;
+}
+
+export function colorFor(index) {
+  return COLORS[index % COLORS.length];
+}
+
+export function stateColor(drone) {
+  if (drone.status === "lost") return STATE_COLORS.lost;
+  return STATE_COLORS[drone.state] || "#374151";
+}
+
+/** An arrow pointing along `headingDeg`, coloured by state. */
+export function droneIcon(drone) {
+  const color = stateColor(drone);
+  const heading = Number.isFinite(drone.heading_deg) ? drone.heading_deg : 0;
+  const lost = drone.status === "lost" ? " lost" : "";
+  const html = `<div class="drone-icon${lost}" style="transform: rotate(${heading}deg)">
+    <svg viewBox="0 0 24 24" width="24" height="24" aria-hidden="true">
+      <path d="M12 2 L20 21 L12 16 L4 21 Z" fill="${color}" stroke="#fff" stroke-width="1.5"/></svg></div>
+    <span class="drone-label">${drone.drone_id}${drone.status === "lost" ? " (lost)" : ""}</span>`;
+  return L.divIcon({ html, className: "drone-marker", iconSize: [24, 24], iconAnchor: [12, 12] });
+}
+
+export function latLngOf(position) {
+  return position ? [position.lat, position.lon] : null;
+}

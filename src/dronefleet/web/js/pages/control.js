@@ -1,0 +1,83 @@
+// Control: the seed's commands for one drone as buttons; destructive ones ask first.
+import { api } from "../api.js";
+import { droneIcon, latLngOf, makeMap } from "../map.js";
+import { el, field, toast } from "../ui.js";
+
+const L = window.L;
+
+const COMMANDS = [
+  { command: "arm", label: "Arm" },
+  { command: "disarm", label: "Disarm", confirm: true },
+  { command: "takeoff", label: "Take off", value: "altitude" },
+  { command: "land", label: "Land", confirm: true },
+  { command: "changeN", label: "Move north", value: "step" },
+  { command: "changeE", label: "Move east", value: "step" },
+  { command: "altitude", label: "Move up", value: "step" },
+  { command: "takepic", label: "Take picture" },
+  { command: "resetfc", label: "Reset", confirm: true },
+];
+
+export async function mount(root, ctx) {
+  const select = el("select", { id: "control-drone" });
+  const altitude = el("input", { type: "number", id: "control-altitude", value: "10", min: "1", max: "120", step: "1" });
+  const step = el("input", { type: "number", id: "control-step", value: "5", min: "-50", max: "50", step: "1" });
+  const result = el("pre", { class: "result", id: "control-result", "aria-live": "polite" });
+  const buttons = COMMANDS.map((c) => el("button", {
+    type: "button", class: `command${c.confirm ? " danger" : ""}`, "data-command": c.command,
+    disabled: !ctx.me.can_command, onclick: () => send(c),
+  }, c.label));
+  const goto = el("p", { class: "hint" }, ctx.me.can_command ? "Click the map to send the drone there (at the altitude above)." : "Viewer token: commands are disabled.");
+  const mapBox = el("div", { class: "map", id: "control-map" });
+  root.append(el("h1", {}, "Control"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
+    field("Drone", select), field("Take-off altitude (m)", altitude), field("Move by (m)", step),
+    el("div", { class: "buttons" }, ...buttons), goto, result)));
+
+  function fillDrones() {
+    const chosen = select.value;
+    select.replaceChildren(...ctx.fleet.list().map((d) => el("option", { value: d.drone_id }, `${d.drone_id} — ${d.status === "lost" ? "lost" : d.state}`)));
+    if (chosen) select.value = chosen;
+  }
+
+  async function post(command, body) {
+    const id = select.value;
+    if (!id) return toast("no drone selected", "error");
+    result.textContent = `${command} → ${id}…`;
+    try {
+      const answer = await api(`/drones/${encodeURIComponent(id)}/commands/${command}`, { method: "POST", body });
+      result.textContent = JSON.stringify(answer, null, 1);
+      toast(`${id}: ${command} done`);
+    } catch (err) {
+      result.textContent = `${command} failed: ${err.message}`;
+      toast(`${id}: ${command} failed: ${err.message}`, "error");
+    }
+  }
+
+  function send(c) {
+    if (c.confirm && !window.confirm(`${c.label} ${select.value}? This cannot be undone in flight.`)) return;
+    let body;
+    if (c.value === "altitude") body = { value: Number(altitude.value) };
+    if (c.value === "step") body = { value: Number(step.value) };
+    post(c.command, body);
+  }
+
+  const map = await makeMap(mapBox);
+  const markers = new Map();
+  map.on("click", (e) => {
+    if (!ctx.me.can_command) return;
+    post("navigate", { lat: e.latlng.lat, lon: e.latlng.lng, altitude_delta: Number(altitude.value) });
+  });
+  let fitted = false;
+  function render() {
+    fillDrones();
+    for (const d of ctx.fleet.list()) {
+      const at = latLngOf(d.position);
+      if (!at) continue;
+      if (!markers.has(d.drone_id)) markers.set(d.drone_id, L.marker(at, { keyboard: false }).addTo(map));
+      markers.get(d.drone_id).setLatLng(at).setIcon(droneIcon(d));
+      if (!fitted) { map.setView(at, 19); fitted = true; }
+    }
+  }
+  ctx.fleet.addEventListener("change", render);
+  render();
+  return () => { ctx.fleet.removeEventListener("change", render); map.remove(); };
+}

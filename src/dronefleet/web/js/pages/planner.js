@@ -1,0 +1,220 @@
+// Planner: draw an area (polygon or the seed's three clicks), preview it, send it, watch it fly.
+import { api } from "../api.js";
+import { colorFor, droneIcon, latLngOf, makeMap } from "../map.js";
+import { el, field, fmtDuration, toast } from "../ui.js";
+import { stepEditor } from "./planner-steps.js";
+
+const L = window.L;
+// GoPro Hero3 (the seed's camera), for the camera+overlap spacing.
+const CAMERA = { sensor_width_mm: 6.17, sensor_height_mm: 4.55, focal_length_mm: 2.77, image_width_px: 4000, image_height_px: 3000 };
+
+export async function mount(root, ctx) {
+  const s = { mode: "polygon", vertices: [], clicks: [], missionId: null };
+  const num = (id, value, attrs = {}) => el("input", { type: "number", id, value, step: "any", ...attrs });
+  const inputs = {
+    spacingKind: el("select", { id: "plan-spacing-kind" }, el("option", { value: "spacing" }, "Line spacing"), el("option", { value: "camera" }, "Camera + overlap")),
+    spacing: num("plan-spacing", 10, { min: 1 }),
+    front: num("plan-front-overlap", 0.7, { min: 0, max: 0.95 }),
+    side: num("plan-side-overlap", 0.6, { min: 0, max: 0.95 }),
+    altitude: num("plan-altitude", 15, { min: 1, max: 120 }),
+    angle: el("input", { type: "number", id: "plan-angle", placeholder: "auto", step: "any" }),
+    action: el("select", { id: "plan-action" }, ...["none", "takepic", "read_sensors"].map((a) => el("option", { value: a }, a))),
+    hold: num("plan-hold", 2, { min: 0 }),
+    flyThrough: el("input", { type: "checkbox", id: "plan-fly-through" }),
+    polygon: el("textarea", { id: "plan-polygon", rows: 4, placeholder: "lat, lon per line" }),
+  };
+  const drones = el("fieldset", { class: "drones", id: "plan-drones" }, el("legend", {}, "Drones"));
+  const status = el("div", { id: "mission-status", class: "status", role: "status", "aria-live": "polite" }, "No mission sent yet.");
+  const estimate = el("div", { id: "plan-estimate" });
+  const editor = stepEditor(() => {});
+  const mapBox = el("div", { class: "map", id: "planner-map" });
+  const can = ctx.me.can_command;
+  const btn = (id, label, onclick, extra = {}) => el("button", { type: "button", id, onclick, ...extra }, label);
+
+  const areaTab = el("div", { id: "tab-area" },
+    el("div", { class: "buttons" },
+      btn("draw-polygon", "Draw polygon", () => setMode("polygon"), { "aria-pressed": "true" }),
+      btn("draw-three", "Three clicks", () => setMode("three"), { "aria-pressed": "false" }),
+      btn("draw-finish", "Finish shape", finish),
+      btn("draw-clear", "Clear", clearShape)),
+    el("p", { class: "hint", id: "draw-hint" }, "Click the map to add corners, then Finish shape."),
+    field("Corners", inputs.polygon),
+    field("Spacing from", inputs.spacingKind), field("Line spacing (m)", inputs.spacing),
+    field("Front overlap", inputs.front), field("Side overlap", inputs.side),
+    field("Altitude (m)", inputs.altitude), field("Angle (°)", inputs.angle),
+    field("Action at each waypoint", inputs.action), field("Hold (s)", inputs.hold),
+    el("div", { class: "field check" }, inputs.flyThrough, el("label", { for: "plan-fly-through" }, "Fly through (photograph without stopping)")));
+  const stepsTab = el("div", { id: "tab-steps", hidden: true },
+    el("p", { class: "hint" }, "Drag commands into the list (or press Add); drag or use ↑ ↓ to reorder."),
+    el("div", { class: "steps-editor" }, editor.palette, editor.box));
+  const kind = el("select", { id: "plan-kind" }, el("option", { value: "area" }, "Cover an area"), el("option", { value: "steps" }, "Step list"));
+  kind.addEventListener("change", () => { areaTab.hidden = kind.value !== "area"; stepsTab.hidden = kind.value !== "steps"; });
+
+  root.append(el("h1", {}, "Planner"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
+    field("Mission", kind), areaTab, stepsTab, drones,
+    el("div", { class: "buttons" },
+      btn("plan-preview", "Preview", preview, { disabled: !can }),
+      btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
+    estimate, status)));
+
+  const map = await makeMap(mapBox);
+  const shape = L.polygon([], { color: "#2563eb", weight: 2, fillOpacity: 0.1 }).addTo(map);
+  const corners = L.layerGroup().addTo(map);
+  const route = L.polyline([], { color: "#f97316", weight: 2, dashArray: "4 4" }).addTo(map);
+  const waypoints = L.layerGroup().addTo(map);
+  const markers = new Map();
+  const trails = new Map();
+
+  function setMode(mode) {
+    s.mode = mode;
+    s.clicks = [];
+    document.getElementById("draw-polygon").setAttribute("aria-pressed", String(mode === "polygon"));
+    document.getElementById("draw-three").setAttribute("aria-pressed", String(mode === "three"));
+    document.getElementById("draw-hint").textContent = mode === "three"
+      ? "Click three corners: the fourth makes a parallelogram (the seed's planner)."
+      : "Click the map to add corners, then Finish shape.";
+  }
+
+  function drawShape() {
+    shape.setLatLngs(s.vertices);
+    corners.clearLayers();
+    for (const v of s.vertices) L.circleMarker(v, { radius: 4, color: "#2563eb" }).addTo(corners);
+    inputs.polygon.value = s.vertices.map(([a, b]) => `${a.toFixed(7)}, ${b.toFixed(7)}`).join("\n");
+  }
+
+  map.on("click", (e) => {
+    if (kind.value !== "area") return;
+    const p = [e.latlng.lat, e.latlng.lng];
+    if (s.mode === "three") {
+      s.clicks.push(p);
+      s.vertices = [...s.clicks];
+      if (s.clicks.length === 3) {
+        const [a, b, c] = s.clicks;
+        s.vertices = [a, b, c, [a[0] + c[0] - b[0], a[1] + c[1] - b[1]]];
+        s.clicks = [];
+      }
+    } else {
+      s.vertices.push(p);
+    }
+    drawShape();
+  });
+  inputs.polygon.addEventListener("change", () => {
+    s.vertices = inputs.polygon.value.split("\n").map((line) => line.split(",").map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
+    drawShape();
+  });
+
+  function finish() {
+    if (s.vertices.length < 3) return toast("an area needs at least three corners", "error");
+    drawShape();
+    toast(`area with ${s.vertices.length} corners ready`);
+  }
+
+  function clearShape() {
+    s.vertices = [];
+    s.clicks = [];
+    drawShape();
+    route.setLatLngs([]);
+    waypoints.clearLayers();
+  }
+
+  function spec() {
+    const chosen = [...drones.querySelectorAll("input:checked")].map((i) => i.value);
+    const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen };
+    if (kind.value === "steps") {
+      body.steps = editor.steps();
+      return body;
+    }
+    const area = {
+      polygon: s.vertices,
+      altitude_m: Number(inputs.altitude.value),
+      action: inputs.action.value,
+      hold_s: Number(inputs.hold.value),
+      fly_through: inputs.flyThrough.checked,
+    };
+    if (inputs.angle.value !== "") area.angle_deg = Number(inputs.angle.value);
+    if (inputs.spacingKind.value === "camera") {
+      area.camera = { ...CAMERA, front_overlap: Number(inputs.front.value), side_overlap: Number(inputs.side.value) };
+    } else {
+      area.spacing_m = Number(inputs.spacing.value);
+    }
+    body.area = area;
+    return body;
+  }
+
+  async function preview() {
+    try {
+      const answer = await api("/missions/preview", { method: "POST", body: spec() });
+      const points = answer.waypoints.map((w) => [w.lat, w.lon]);
+      route.setLatLngs(points);
+      waypoints.clearLayers();
+      points.forEach((p, i) => L.circleMarker(p, { radius: 3, color: "#f97316" }).bindTooltip(`#${i + 1}`).addTo(waypoints));
+      estimate.replaceChildren(el("table", { class: "grid", id: "estimate-table" },
+        el("caption", {}, `${points.length} waypoints${answer.area_m2 ? `, ${answer.area_m2} m²` : ""}`),
+        el("thead", {}, el("tr", {}, ...["Drone", "Steps", "Time", "Battery used", "Battery left"].map((h) => el("th", { scope: "col" }, h)))),
+        el("tbody", {}, ...answer.drones.map((d) => el("tr", {},
+          el("th", { scope: "row" }, d.drone_id), el("td", {}, d.steps), el("td", {}, fmtDuration(d.duration_s)),
+          el("td", {}, `${d.battery_used_pct} %`), el("td", {}, `${d.battery_end_pct} %`))))));
+    } catch (err) {
+      estimate.textContent = `Preview failed: ${err.message}`;
+    }
+  }
+
+  async function send() {
+    try {
+      const record = await api("/missions", { method: "POST", body: spec(), query: { start: "true" } });
+      s.missionId = record.mission_id;
+      showMission(record);
+      toast(`mission ${record.mission_id} sent`);
+    } catch (err) {
+      status.textContent = `Send failed: ${err.message}`;
+      toast(`send failed: ${err.message}`, "error");
+    }
+  }
+
+  function showMission(m) {
+    status.dataset.state = m.state;
+    status.dataset.mission = m.mission_id;
+    status.textContent = `Mission ${m.mission_id}: ${m.state} — ${m.steps_done}/${m.steps} steps, ${m.waypoints_reached}/${m.waypoints} waypoints, ${m.handovers} handover(s)${m.error ? ` — ${m.error}` : ""}`;
+  }
+
+  function fillDrones() {
+    const have = new Set([...drones.querySelectorAll("input")].map((i) => i.value));
+    for (const d of ctx.fleet.list()) {
+      if (have.has(d.drone_id)) continue;
+      const id = `plan-drone-${d.drone_id}`;
+      drones.append(el("div", { class: "check" }, el("input", { type: "checkbox", id, value: d.drone_id }), el("label", { for: id }, d.drone_id)));
+    }
+  }
+
+  let fitted = false;
+  function render() {
+    fillDrones();
+    ctx.fleet.list().forEach((d, i) => {
+      const at = latLngOf(d.position);
+      if (!at) return;
+      if (!markers.has(d.drone_id)) {
+        markers.set(d.drone_id, L.marker(at, { keyboard: false }).addTo(map));
+        trails.set(d.drone_id, L.polyline([], { color: colorFor(i), weight: 2 }).addTo(map));
+      }
+      markers.get(d.drone_id).setLatLng(at).setIcon(droneIcon(d));
+      if (s.missionId && d.mission_id && d.mission_id.startsWith(s.missionId)) trails.get(d.drone_id).addLatLng(at);
+      if (!fitted) { map.setView(at, 19); fitted = true; }
+    });
+  }
+
+  const off = ctx.onStream((msg) => {
+    if (msg.kind === "mission" && msg.data && msg.data.mission_id === s.missionId) {
+      if (msg.data.state && msg.data.steps !== undefined) showMission(msg.data);
+      else poll();
+      if (msg.data.event === "handover") toast(`mission ${s.missionId}: handover`);
+    }
+  });
+  async function poll() {
+    if (!s.missionId) return;
+    try { showMission(await api(`/missions/${s.missionId}`)); } catch { /* the stream will tell */ }
+  }
+  const poller = setInterval(poll, 3000);
+  ctx.fleet.addEventListener("change", render);
+  render();
+  return () => { off(); clearInterval(poller); ctx.fleet.removeEventListener("change", render); map.remove(); };
+}

@@ -1,0 +1,94 @@
+// Replay: a mission log (dropped file or a finished mission), each drone's path on a timeline.
+import { api } from "../api.js";
+import { colorFor, makeMap } from "../map.js";
+import { el, field, fmtDuration, toast } from "../ui.js";
+
+const L = window.L;
+
+export async function mount(root, ctx) {
+  const pick = el("select", { id: "replay-mission" }, el("option", { value: "" }, "— pick a mission —"));
+  const file = el("input", { type: "file", id: "replay-file", accept: ".json,application/json" });
+  const drop = el("div", { class: "drop", id: "replay-drop", tabindex: "0" }, "Drop a mission log (.json) here, or choose a file: ", file);
+  const slider = el("input", { type: "range", id: "replay-time", min: "0", max: "1000", value: "1000", disabled: true });
+  const clock = el("output", { id: "replay-clock", for: "replay-time" }, "—");
+  const title = el("p", { id: "replay-title", role: "status" }, "No log loaded.");
+  const steps = el("div", { id: "replay-steps", class: "scroll" });
+  const mapBox = el("div", { class: "map", id: "replay-map" });
+  root.append(el("h1", {}, "Replay"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
+    field("Finished mission", pick), drop, title, field("Timeline", slider), clock, steps)));
+  const map = await makeMap(mapBox);
+  const layers = L.layerGroup().addTo(map);
+  let tracks = [];
+  let span = [0, 0];
+
+  try {
+    for (const m of await api("/missions")) pick.append(el("option", { value: m.mission_id }, `${m.mission_id} — ${m.name || ""} (${m.state})`));
+  } catch (err) {
+    toast(`missions: ${err.message}`, "error");
+  }
+  pick.addEventListener("change", async () => {
+    if (!pick.value) return;
+    try { show(await api(`/missions/${encodeURIComponent(pick.value)}/log`)); } catch (err) { toast(err.message, "error"); }
+  });
+  async function readFile(f) {
+    try { show(JSON.parse(await f.text())); } catch (err) { toast(`not a mission log: ${err.message}`, "error"); }
+  }
+  file.addEventListener("change", () => file.files[0] && readFile(file.files[0]));
+  drop.addEventListener("dragover", (e) => { e.preventDefault(); drop.classList.add("over"); });
+  drop.addEventListener("dragleave", () => drop.classList.remove("over"));
+  drop.addEventListener("drop", (e) => {
+    e.preventDefault();
+    drop.classList.remove("over");
+    if (e.dataTransfer.files[0]) readFile(e.dataTransfer.files[0]);
+  });
+  slider.addEventListener("input", () => seek(Number(slider.value) / 1000));
+
+  function show(log) {
+    if (!log || !Array.isArray(log.drones)) throw new Error("no drones in this file");
+    layers.clearLayers();
+    if (log.area && log.area.polygon) L.polygon(log.area.polygon, { color: "#9ca3af", weight: 1, fillOpacity: 0.05 }).addTo(layers);
+    tracks = log.drones.map((d, i) => {
+      const color = colorFor(i);
+      const all = d.path.map((p) => [p.lat, p.lon]);
+      L.polyline(all, { color, weight: 1, opacity: 0.35 }).addTo(layers);
+      return {
+        d, path: d.path,
+        line: L.polyline([], { color, weight: 3, className: "replay-path" }).addTo(layers),
+        dot: L.circleMarker(all[0] || [0, 0], { radius: 6, color, fillOpacity: 0.9 }).bindTooltip(d.drone_id, { permanent: true }).addTo(layers),
+      };
+    });
+    const times = tracks.flatMap((t) => t.path.map((p) => p.t));
+    span = times.length ? [Math.min(...times), Math.max(...times)] : [0, 0];
+    const all = tracks.flatMap((t) => t.path.map((p) => [p.lat, p.lon]));
+    if (all.length) map.fitBounds(L.latLngBounds(all).pad(0.2));
+    slider.disabled = false;
+    slider.value = "1000";
+    seek(1);
+    title.textContent = `${log.mission_id} “${log.name || ""}”: ${log.state}, ${log.drones.length} drone(s), ${log.steps_done}/${log.steps_planned} steps, ${log.handovers || 0} handover(s)`;
+    title.dataset.mission = log.mission_id;
+    renderSteps();
+  }
+
+  function seek(fraction) {
+    const t = span[0] + (span[1] - span[0]) * fraction;
+    for (const track of tracks) {
+      const upto = track.path.filter((p) => p.t <= t);
+      const pts = upto.map((p) => [p.lat, p.lon]);
+      track.line.setLatLngs(pts);
+      if (pts.length) track.dot.setLatLng(pts[pts.length - 1]);
+    }
+    clock.textContent = `t = ${(t - span[0]).toFixed(1)} s of ${(span[1] - span[0]).toFixed(1)} s (vehicle time)`;
+  }
+
+  function renderSteps() {
+    steps.replaceChildren(el("table", { class: "grid", id: "replay-step-table" },
+      el("caption", {}, "Steps"),
+      el("thead", {}, el("tr", {}, ...["Drone", "#", "Command", "Start (s)", "Took"].map((h) => el("th", { scope: "col" }, h)))),
+      el("tbody", {}, ...tracks.flatMap((t) => (t.d.steps || []).map((s) => el("tr", {},
+        el("td", {}, t.d.drone_id), el("td", {}, s.index ?? "—"), el("td", {}, s.command),
+        el("td", {}, Number.isFinite(s.started_s) ? (s.started_s - span[0]).toFixed(1) : "—"),
+        el("td", {}, fmtDuration(s.duration_s))))))));
+  }
+
+  return () => map.remove();
+}

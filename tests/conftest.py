@@ -1,0 +1,41 @@
+"""Fixtures shared by the whole suite: real brokers."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import settings
+
+# Wall time on these shared 2-core machines is noisy: no per-example deadlines anywhere.
+settings.register_profile("dronefleet", deadline=None)
+settings.load_profile("dronefleet")
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from dronefleet.messaging.embedded import EmbeddedBroker  # noqa: E402
+from support.brokers import mosquitto  # noqa: E402
+
+
+@pytest.fixture
+async def embedded_broker():
+    async with EmbeddedBroker() as broker:
+        yield broker.url
+
+
+@pytest.fixture
+def mosquitto_broker(tmp_path):
+    with mosquitto(tmp_path) as url:
+        yield url
+
+
+@pytest.fixture(params=["embedded", "mosquitto"])
+async def broker_url(request, tmp_path):
+    """Each test using this runs once on the embedded broker and once on a real Mosquitto."""
+    if request.param == "embedded":
+        async with EmbeddedBroker() as broker:
+            yield broker.url
+    else:
+        with mosquitto(tmp_path) as url:
+            yield url

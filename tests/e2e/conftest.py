@@ -1,0 +1,193 @@
+"""The e2e fixtures: a ``dronefleet demo`` on loopback and Debian's Chromium driven by Playwright.
+
+Chromium comes from ``make system-deps`` (apt's ``chromium``); Playwright cannot download
+browsers here, so it is pointed at ``/usr/bin/chromium``. Screenshots go to
+``test-artifacts/e2e/`` (git-ignored).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = ROOT / "test-artifacts" / "e2e"
+CHROMIUM = os.environ.get("DRONEFLEET_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+LINES = {
+    "url": re.compile(r"^web UI: (\S+?)/?$"),
+    "operator": re.compile(r"^operator token: (\S+)$"),
+    "viewer": re.compile(r"^viewer token: (\S+)$"),
+    "broker": re.compile(r"^broker: (\S+)$"),
+}
+
+
+@dataclass
+class Demo:
+    url: str
+    operator: str
+    viewer: str
+    broker: str
+    process: subprocess.Popen
+    output: list[str] = field(default_factory=list)
+
+
+def _dronefleet() -> list[str]:
+    exe = Path(sys.executable).with_name("dronefleet")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "dronefleet.cli"]
+
+
+def start_process(args: list[str], log: Path) -> subprocess.Popen:
+    return subprocess.Popen(
+        args,
+        stdout=subprocess.PIPE,
+        stderr=log.open("w"),
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+
+
+def stop_process(process: subprocess.Popen) -> None:
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+@pytest.fixture(scope="session")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Demo]:
+    """``dronefleet demo`` with 3 simulated drones, no demo mission, on a free loopback port."""
+    state = tmp_path_factory.mktemp("demo")
+    # Speed-up 5, not 10: on a loaded machine the demo's drones then miss no heartbeat deadline.
+    args = [*_dronefleet(), "demo", "--http", "127.0.0.1:0", "--speedup", "5"]
+    args += ["--state-dir", str(state), "--no-mission"]
+    process = start_process(args, state / "stderr.log")
+    found: dict[str, str] = {}
+    seen: list[str] = []
+    deadline = time.monotonic() + 60
+    assert process.stdout is not None
+    while len(found) < len(LINES) and time.monotonic() < deadline:
+        line = process.stdout.readline()
+        if not line:
+            break
+        seen.append(line.rstrip())
+        for key, pattern in LINES.items():
+            if match := pattern.match(line.strip()):
+                found[key] = match.group(1)
+    if len(found) < len(LINES):
+        stop_process(process)
+        err = (state / "stderr.log").read_text()[-2000:]
+        pytest.fail(f"dronefleet demo did not print its URL and tokens: {seen!r}\n{err}")
+    # Keep draining stdout so the demo never blocks on a full pipe.
+    demo = Demo(process=process, **found)
+    threading.Thread(target=lambda: demo.output.extend(process.stdout), daemon=True).start()
+    yield demo
+    stop_process(process)
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[object]:
+    if not Path(CHROMIUM).exists():
+        pytest.fail(
+            f"Chromium is missing ({CHROMIUM}): run `make system-deps` (installs Debian's chromium)"
+        )
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.fail("the playwright package is missing: run `make test` (installs '.[test]')")
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
+        yield browser
+        browser.close()
+
+
+class Console:
+    """Console errors and uncaught exceptions of one page.
+
+    A 504 ("the Drone Identifier did not answer") is tolerated: on a loaded machine the ground's
+    RPC to the Identifier times out now and then (a server issue, reported); the page shows the
+    reason and keeps what it has, and the tests try again.
+    """
+
+    def __init__(self, page) -> None:
+        self.errors: list[str] = []
+        self.tolerated = 0
+        page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
+        page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
+        page.on("response", self._on_response)
+
+    def _on_response(self, response) -> None:
+        if response.status == 504:
+            self.tolerated += 1
+
+    def assert_clean(self) -> None:
+        errors = list(self.errors)
+        for _ in range(self.tolerated):
+            with contextlib.suppress(ValueError):
+                errors.remove(
+                    "Failed to load resource: the server responded with a status of 504 "
+                    "(Gateway Timeout)"
+                )
+        assert not errors, f"console errors: {errors}"
+
+
+@pytest.fixture
+def open_page(browser, demo: Demo):
+    """open_page("planner", token=..., **context_options) → (page, console)."""
+    contexts = []
+
+    def open_(name: str, *, token: str | None = None, **options):
+        options.setdefault("viewport", {"width": 1280, "height": 860})
+        context = browser.new_context(**options)
+        contexts.append(context)
+        context.add_init_script(
+            f"localStorage.setItem('dronefleet.token', {token or demo.operator!r});"
+        )
+        page = context.new_page()
+        console = Console(page)
+        page.goto(f"{demo.url}/#/{name}")
+        page.wait_for_selector("#link-state[data-state='live']", timeout=15_000)
+        return page, console
+
+    yield open_
+    for context in contexts:
+        context.close()
+
+
+def shot(page, name: str) -> None:
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / f"{name}.png"), full_page=True)
+
+
+@pytest.fixture
+def screenshot():
+    return shot
+
+
+@pytest.fixture(scope="session")
+def shared() -> dict[str, str]:
+    """What one test leaves for the next (the planner's mission id for the replay)."""
+    return {}

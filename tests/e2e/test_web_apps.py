@@ -1,0 +1,172 @@
+"""The web apps as a person uses them: Chromium on a live ``dronefleet demo`` (issue 5).
+
+Each scenario reads like the seed's: draw an area and fly it, replay its log, call a drone from
+a phone, see a drone lost, read a past stretch of telemetry. Every page must log no console error.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import urllib.error
+import urllib.request
+from datetime import UTC, datetime
+
+import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+from .conftest import start_process, stop_process
+
+pytestmark = pytest.mark.e2e
+
+
+def get(demo, path: str, tries: int = 5):
+    """GET /api/v1{path} as the operator; a 504 (Identifier slow under load) is tried again."""
+    request = urllib.request.Request(
+        f"{demo.url}/api/v1{path}", headers={"Authorization": f"Bearer {demo.operator}"}
+    )
+    for attempt in range(tries):
+        try:
+            with urllib.request.urlopen(request, timeout=20) as answer:
+                return json.loads(answer.read())
+        except urllib.error.HTTPError as exc:
+            if exc.code != 504 or attempt == tries - 1:
+                raise
+            time.sleep(1)
+
+
+def click_until(page, button: str, done: str, timeout_ms: int = 30_000, tries: int = 3) -> None:
+    """Press `button` until `done` shows (a 504 from a loaded server gets another press)."""
+    for attempt in range(tries):
+        page.click(button)
+        try:
+            page.wait_for_selector(done, timeout=timeout_ms)
+            return
+        except PlaywrightTimeout:
+            if attempt == tries - 1:
+                raise
+
+
+def click_map(page, selector: str, offsets: list[tuple[int, int]]) -> None:
+    box = page.locator(selector).bounding_box()
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    for dx, dy in offsets:
+        page.mouse.click(cx + dx, cy + dy)
+        page.wait_for_timeout(150)  # not a double click
+
+
+def test_an_area_drawn_in_the_planner_is_flown_to_completion(open_page, screenshot, shared):
+    page, console = open_page("planner")
+    page.wait_for_selector("#plan-drone-QUAD_1")
+    page.wait_for_timeout(500)  # the map centres on the fleet
+    click_map(page, "#planner-map", [(-80, -80), (80, -80), (80, 80), (-80, 80)])
+    page.click("#draw-finish")
+    assert len(page.input_value("#plan-polygon").splitlines()) == 4
+    page.fill("#plan-spacing", "12")
+    page.check("#plan-drone-QUAD_1")
+    click_until(page, "#plan-preview", "#estimate-table tbody tr")
+    assert "QUAD_1" in page.inner_text("#estimate-table")
+    screenshot(page, "1-planner-preview")
+    click_until(page, "#plan-send", "#mission-status[data-state]")
+    page.wait_for_selector("#mission-status[data-state='completed']", timeout=90_000)
+    shared["mission"] = page.get_attribute("#mission-status", "data-mission")
+    screenshot(page, "1-planner-completed")
+    console.assert_clean()
+
+
+def test_the_log_of_that_mission_replays_its_path(open_page, screenshot, shared, demo, tmp_path):
+    mission = shared.get("mission") or pytest.fail("needs the planner test's mission")
+    log_file = tmp_path / f"mission-{mission}.json"
+    log_file.write_text(json.dumps(get(demo, f"/missions/{mission}/log")))
+    page, console = open_page("replay")
+    page.set_input_files("#replay-file", str(log_file))  # the "drop a log file" path
+    page.wait_for_selector(f"#replay-title[data-mission='{mission}']")
+    path = page.locator("path.replay-path").first.get_attribute("d")
+    assert path and path.count("L") >= 3, f"no path drawn: {path!r}"
+    assert page.locator("#replay-step-table tbody tr").count() > 3
+    page.fill("#replay-time", "300")
+    page.dispatch_event("#replay-time", "input")
+    assert "of" in page.inner_text("#replay-clock")
+    screenshot(page, "2-replay")
+    # The same log, picked from the finished missions.
+    page.select_option("#replay-mission", mission)
+    page.wait_for_selector(f"#replay-title[data-mission='{mission}']")
+    console.assert_clean()
+
+
+def test_calling_from_a_phone_100_m_away_brings_a_drone(open_page, screenshot, demo):
+    drone = next(d for d in get(demo, "/drones") if d["drone_id"] == "QUAD_3")
+    lat = drone["position"]["lat"] + 100 / 111_320  # 100 m north
+    lon = drone["position"]["lon"]
+    page, console = open_page(
+        "call",
+        geolocation={"latitude": lat, "longitude": lon},
+        permissions=["geolocation"],
+        viewport={"width": 390, "height": 844},
+        is_mobile=True,
+        has_touch=True,
+    )
+    click_until(page, "#call-button", "#call-status[data-state='coming']")
+    screenshot(page, "3-call-coming")
+    page.wait_for_selector("#call-status[data-state='arrived']", timeout=90_000)
+    screenshot(page, "3-call-arrived")
+    console.assert_clean()
+
+
+def test_a_drone_whose_process_stops_is_shown_lost(open_page, screenshot, demo, tmp_path):
+    home = get(demo, "/drones")[0]["home"]
+    where = f"{home['lat'] + 0.0003},{home['lon']},{home['alt_m']}"
+    args = [*_cli(), "drone", "--id", "LONE_1", "--fc", "sim", "--broker", demo.broker]
+    args += ["--speedup", "5", "--home", where, "--heartbeat-s", "1"]
+    process = start_process(args, tmp_path / "drone.log")
+    try:
+        page, console = open_page("fleet")
+        page.wait_for_selector(
+            "#fleet-table tr[data-drone='LONE_1'][data-status='online']", timeout=30_000
+        )
+        screenshot(page, "4-fleet-online")
+    finally:
+        stop_process(process)
+    page.wait_for_selector(
+        "#fleet-table tr[data-drone='LONE_1'][data-status='lost']", timeout=30_000
+    )
+    assert "LOST" in page.inner_text("#fleet-table tr[data-drone='LONE_1']")
+    assert page.locator(".drone-label", has_text="LONE_1 (lost)").count() == 1
+    screenshot(page, "4-fleet-lost")
+    console.assert_clean()
+
+
+def test_the_telemetry_page_charts_a_past_time_range(open_page, screenshot):
+    page, console = open_page("telemetry", timezone_id="UTC")
+    page.wait_for_selector("#tm-f-battery_pct")
+    now = time.time()
+    stamp = lambda t: datetime.fromtimestamp(t, UTC).strftime("%Y-%m-%dT%H:%M:%S")  # noqa: E731
+    for box in page.locator("#tm-drones input").all():
+        box.set_checked(box.get_attribute("value") in {"QUAD_1", "QUAD_2"})
+    page.select_option("#tm-range", "between")
+    page.fill("#tm-from", stamp(now - 600))
+    page.fill("#tm-to", stamp(now - 5))
+    page.click("#tm-show")
+    chart = page.locator("#tm-charts figure[data-field='battery_pct']")
+    chart.wait_for()
+    assert int(chart.get_attribute("data-points")) > 3
+    screenshot(page, "5-telemetry")
+    console.assert_clean()
+
+
+def test_a_viewer_sees_the_fleet_but_cannot_command(open_page, demo):
+    page, console = open_page("control", token=demo.viewer)
+    assert page.locator("button.command[data-command='arm']").is_disabled()
+    console.assert_clean()  # before the refused command below, which Chromium logs
+    status = page.evaluate(
+        """async (token) => (await fetch('/api/v1/drones/QUAD_2/commands/arm',
+             {method: 'POST', headers: {Authorization: 'Bearer ' + token}})).status""",
+        demo.viewer,
+    )
+    assert status == 403
+
+
+def _cli() -> list[str]:
+    from .conftest import _dronefleet
+
+    return _dronefleet()

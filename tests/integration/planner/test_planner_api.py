@@ -1,0 +1,154 @@
+"""The Mission Planner over REST: preview, refusals with reasons, create, start, stop, log, call.
+
+Missions above the altitude limit, or that a drone's battery cannot finish, are refused with the
+reason and nothing changes; viewers cannot command.
+"""
+
+from __future__ import annotations
+
+import asyncio
+
+import httpx
+import pytest
+
+from dronefleet.drone.config import DroneConfig
+from dronefleet.drone.simulated import SimFleet
+from dronefleet.experiments.scenarios import rectangle
+from dronefleet.geo.ned import ned_to_lla
+from dronefleet.geo.types import LLA, NED
+from dronefleet.ground.manager.auth import Role, TokenBook
+from dronefleet.ground.services import GroundServices
+
+pytestmark = pytest.mark.integration
+HOME = LLA(40.63, -8.659, 10.0)
+
+
+@pytest.fixture
+async def platform(embedded_broker, tmp_path):
+    ground = GroundServices(
+        embedded_broker,
+        store_url=f"sqlite:///{tmp_path}/t.db",
+        state_path=tmp_path / "g.db",
+        http_port=0,
+        planner_client_id="api-test-planner",
+    )
+    async with ground, SimFleet(speedup=10) as fleet:
+        await fleet.add_drone(DroneConfig(drone_id="FULL"), embedded_broker, home=HOME)
+        low_home = ned_to_lla(NED(0, 20), HOME)
+        await fleet.add_drone(
+            DroneConfig(drone_id="LOW"), embedded_broker, home=low_home, battery_pct=24.0
+        )
+        viewer = await TokenBook(ground.state).issue("viewer", Role.VIEWER)
+        op = httpx.AsyncClient(
+            base_url=ground.http_url, headers={"Authorization": f"Bearer {ground.operator_token}"}
+        )
+        view = httpx.AsyncClient(
+            base_url=ground.http_url, headers={"Authorization": f"Bearer {viewer}"}
+        )
+        async with op, view:
+            for _ in range(100):
+                fleet_now = (await op.get("/api/v1/drones")).json()
+                if {d["drone_id"] for d in fleet_now} == {"FULL", "LOW"}:
+                    break
+                await asyncio.sleep(0.1)
+            yield op, view
+
+
+def area(**extra) -> dict:
+    return {"polygon": rectangle(20, 0, 30, 40), "spacing_m": 10, "altitude_m": 15, **extra}
+
+
+async def until_state(op: httpx.AsyncClient, mission_id: str, states: set[str], timeout_s=90):
+    for _ in range(int(timeout_s / 0.2)):
+        got = (await op.get(f"/api/v1/missions/{mission_id}")).json()
+        if got["state"] in states:
+            return got
+        await asyncio.sleep(0.2)
+    raise AssertionError(f"mission {mission_id} still {got['state']}")
+
+
+async def test_preview_gives_waypoints_time_and_battery(platform):
+    op, _ = platform
+    r = await op.post("/api/v1/missions/preview", json={"drones": ["FULL"], "area": area()})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert len(body["waypoints"]) >= 12
+    (share,) = body["drones"]
+    assert share["drone_id"] == "FULL" and share["duration_s"] > 30
+    assert 0 < share["battery_used_pct"] < 20
+
+
+@pytest.mark.parametrize(
+    ("spec", "status", "reason"),
+    [
+        ({"drones": ["FULL"], "area": area(altitude_m=150)}, 422, "above the 120 m limit"),
+        ({"drones": ["FULL"], "steps": [{"command": "takeoff", "value": 300}]}, 422, "120 m limit"),
+        ({"drones": ["NOPE"], "area": area()}, 404, "not known"),
+        ({"drones": ["FULL"]}, 422, "give 'steps', 'area', or both"),
+        ({"drones": ["FULL"], "steps": [{"command": "warp"}]}, 422, "step 0"),
+        ({"drones": ["FULL"], "area": {"polygon": [[1, 2]], "spacing_m": 5}}, 422, "polygon"),
+    ],
+)
+async def test_bad_missions_are_refused_with_the_reason(platform, spec, status, reason):
+    op, _ = platform
+    r = await op.post("/api/v1/missions", json=spec)
+    assert r.status_code == status, r.text
+    assert reason in r.text
+    assert (await op.get("/api/v1/missions")).json() == []  # nothing was created
+
+
+async def test_a_mission_the_battery_cannot_finish_is_refused(platform):
+    op, _ = platform
+    big = {"polygon": rectangle(0, 0, 200, 300), "spacing_m": 5, "altitude_m": 20}
+    r = await op.post("/api/v1/missions", json={"drones": ["LOW"], "area": big})
+    assert r.status_code == 422 and "cannot finish" in r.json()["detail"]
+
+
+async def test_viewers_see_but_cannot_command(platform):
+    _op, view = platform
+    assert (await view.get("/api/v1/missions")).status_code == 200
+    r = await view.post("/api/v1/missions", json={"drones": ["FULL"], "area": area()})
+    assert r.status_code == 403
+
+
+async def test_a_mission_is_created_flown_logged_and_listed(platform):
+    op, _ = platform
+    r = await op.post(
+        "/api/v1/missions",
+        params={"start": "true"},
+        json={"name": "api", "drones": ["FULL"], "area": area(action="takepic")},
+    )
+    assert r.status_code == 201, r.text
+    mission_id = r.json()["mission_id"]
+    done = await until_state(op, mission_id, {"completed", "failed"})
+    assert done["state"] == "completed", done
+    assert done["waypoints_reached"] == done["waypoints"] > 0
+    log = (await op.get(f"/api/v1/missions/{mission_id}/log")).json()
+    (drone,) = log["drones"]
+    assert drone["drone_id"] == "FULL" and len(drone["path"]) > 5
+    assert sum(1 for s in drone["steps"] if s["command"] == "takepic") == done["waypoints"]
+    listed = (await op.get("/api/v1/missions")).json()
+    assert [m["mission_id"] for m in listed] == [mission_id]
+
+
+async def test_stopping_a_mission_and_calling_a_drone(platform):
+    op, _ = platform
+    r = await op.post(
+        "/api/v1/missions", params={"start": "true"}, json={"drones": ["FULL"], "area": area()}
+    )
+    mission_id = r.json()["mission_id"]
+    await asyncio.sleep(1.0)
+    stopped = (await op.post(f"/api/v1/missions/{mission_id}/stop")).json()
+    assert stopped["state"] == "stopped"
+    assert (await op.post(f"/api/v1/missions/{mission_id}/start")).status_code == 409
+    here = ned_to_lla(NED(30, 30), HOME)
+    for _ in range(50):  # the Identifier learns that FULL is idle again from its heartbeats
+        call = await op.post("/api/v1/call", json={"lat": here.lat, "lon": here.lon})
+        if call.status_code == 201:
+            break
+        await asyncio.sleep(0.2)
+    assert call.status_code == 201, call.text
+    arrived = await until_state(op, call.json()["mission_id"], {"completed", "failed"})
+    assert arrived["state"] == "completed"
+    bad = await op.post("/api/v1/call", json={"lat": 95, "lon": 0})
+    assert bad.status_code == 422

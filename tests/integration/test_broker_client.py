@@ -1,0 +1,99 @@
+"""The broker client heals itself: reconnects and re-subscribes; requests time out clearly."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from dronefleet.messaging.client import BrokerClient
+from dronefleet.messaging.embedded import free_port
+from dronefleet.messaging.rpc import Requester, RequestTimeout
+from support.brokers import mosquitto
+
+pytestmark = pytest.mark.integration
+
+
+async def test_publish_and_subscribe_on_both_brokers(broker_url):
+    got: asyncio.Queue = asyncio.Queue()
+    async with BrokerClient(broker_url, "sub") as sub, BrokerClient(broker_url, "pub") as pub:
+        await sub.subscribe("+/control/in", lambda t, p: got.put((t, p)))
+        await asyncio.sleep(0.1)
+        await pub.publish("Q/control/in", {"command": "arm"})
+        assert await asyncio.wait_for(got.get(), 5) == ("Q/control/in", b'{"command":"arm"}')
+
+
+async def test_a_failing_handler_does_not_stop_the_subscription(embedded_broker):
+    got: asyncio.Queue = asyncio.Queue()
+
+    async def handler(topic_name, payload):
+        if payload == b"1":
+            raise ValueError("boom")
+        await got.put(payload)
+
+    async with (
+        BrokerClient(embedded_broker, "sub") as sub,
+        BrokerClient(embedded_broker, "pub") as pub,
+    ):
+        await sub.subscribe("t", handler)
+        await pub.publish("t", b"1")
+        await pub.publish("t", b"2")
+        assert await asyncio.wait_for(got.get(), 5) == b"2"
+
+
+async def test_client_reconnects_and_resubscribes_after_the_broker_restarts(tmp_path):
+    port = free_port()
+    got: asyncio.Queue = asyncio.Queue()
+    with mosquitto(tmp_path, port=port) as url:
+        sub = await BrokerClient(url, "sub", reconnect_s=0.2).start()
+        await sub.subscribe("a/b", lambda t, p: got.put(p))
+    # The broker is gone: a message published now waits for it instead of being lost.
+    pub = BrokerClient(url, "pub", reconnect_s=0.2)
+    pending = asyncio.create_task(pub.start(timeout_s=None))
+    with mosquitto(tmp_path, port=port):
+        for _ in range(100):  # the old link's loss may be noticed only now
+            if sub.connections == 2 and sub.connected:
+                break
+            await asyncio.sleep(0.1)
+        await pending
+        await pub.wait_connected(10)
+        await asyncio.sleep(0.2)
+        assert await pub.publish("a/b", b"after restart", timeout_s=5)
+        assert await asyncio.wait_for(got.get(), 5) == b"after restart"
+        assert sub.connections == 2
+        await pub.stop()
+        await sub.stop()
+
+
+async def test_request_without_answer_times_out_clearly(embedded_broker):
+    async with BrokerClient(embedded_broker, "asker") as client:
+        with pytest.raises(RequestTimeout, match="no answer on X/control/out"):
+            await Requester(client).request(
+                "X/control/in", "X/control/out", {"command": "arm"}, timeout_s=0.3
+            )
+
+
+async def test_request_matches_answers_by_request_id(embedded_broker):
+    async with (
+        BrokerClient(embedded_broker, "server") as server,
+        BrokerClient(embedded_broker, "asker") as asker,
+    ):
+
+        async def echo(topic_name, payload):
+            import orjson
+
+            data = orjson.loads(payload)
+            await asyncio.sleep(0.05 if data["n"] == 1 else 0)
+            await server.publish(
+                "X/control/out", {"request_id": data["request_id"], "n": data["n"]}
+            )
+
+        await server.subscribe("X/control/in", echo)
+        requester = Requester(asker)
+        answers = await asyncio.gather(
+            *(
+                requester.request("X/control/in", "X/control/out", {"n": n}, timeout_s=5)
+                for n in (1, 2, 3)
+            )
+        )
+        assert [a["n"] for a in answers] == [1, 2, 3]

@@ -1,0 +1,1 @@
+"""Test support: real brokers and real drone processes."""

@@ -1,0 +1,54 @@
+"""Real brokers for tests: the embedded one, and Mosquitto started on a free port."""
+
+from __future__ import annotations
+
+import contextlib
+import shutil
+import socket
+import subprocess
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+from dronefleet.messaging.embedded import free_port
+from dronefleet.messaging.url import BrokerUrl
+
+MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+
+
+def wait_port(host: str, port: int, timeout_s: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        with contextlib.suppress(OSError), socket.create_connection((host, port), timeout=0.5):
+            return
+        time.sleep(0.05)
+    raise TimeoutError(f"nothing listening on {host}:{port} after {timeout_s} s")
+
+
+@contextlib.contextmanager
+def mosquitto(tmp: Path, extra_conf: str = "", port: int | None = None) -> Iterator[BrokerUrl]:
+    """A Mosquitto of our own on a free loopback port (never assumes 1883 is free)."""
+    if not Path(MOSQUITTO).exists():
+        raise RuntimeError(
+            "mosquitto is not installed: run `make system-deps` (apt-get install mosquitto)"
+        )
+    port = port or free_port()
+    conf = tmp / f"mosquitto-{port}.conf"
+    conf.write_text(
+        f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
+        "set_tcp_nodelay true\n"
+        f"log_dest file {tmp}/mosquitto-{port}.log\n{extra_conf}\n"
+    )
+    proc = subprocess.Popen(
+        [MOSQUITTO, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    try:
+        wait_port("127.0.0.1", port)
+        yield BrokerUrl("127.0.0.1", port)
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()

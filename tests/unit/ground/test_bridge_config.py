@@ -1,0 +1,51 @@
+"""``dronefleet bridge-config`` gives the seed's Listing 4.3 for a drone."""
+
+from __future__ import annotations
+
+import pytest
+
+from dronefleet.cli import main
+from dronefleet.messaging.bridge import bridge_config
+
+
+def test_the_listing_of_the_seed(capsys):
+    assert (
+        main(
+            [
+                "bridge-config",
+                "--drone-id",
+                "REVOLUTION_94E041",
+                "--ground",
+                "10.0.0.5:1883",
+                "--username",
+                "droneUsername",
+                "--password",
+                "dronePassword",
+            ]
+        )
+        == 0
+    )
+    lines = capsys.readouterr().out.splitlines()
+    for expected in [
+        "address 10.0.0.5:1883",
+        "username droneUsername",
+        "password dronePassword",
+        "clientid droneMosquitto-REVOLUTION_94E041",
+        'topic REVOLUTION_94E041/control/in in 1 "" ""',
+        'topic REVOLUTION_94E041/mission/in in 1 "" ""',
+        'topic REVOLUTION_94E041/gear/in in 1 "" ""',
+        'topic +/control/out out 1 "" ""',
+        'topic +/telemetry/out out 1 "" ""',
+        "try_private false",  # RabbitMQ's MQTT adapter refuses Mosquitto's private bridge bit
+    ]:
+        assert expected in lines
+    assert sum(line.startswith("topic ") for line in lines) == 9
+
+
+def test_a_whole_config_with_a_listener_and_bad_input_refused():
+    text = bridge_config("D1", "ground", 1884, listener=("127.0.0.1", 1999))
+    assert text.splitlines()[1:3] == ["listener 1999 127.0.0.1", "allow_anonymous true"]
+    with pytest.raises(ValueError):
+        bridge_config("a/b", "ground")
+    with pytest.raises(ValueError):
+        bridge_config("D1", "ground host")

@@ -1,0 +1,54 @@
+"""The Drone Identifier: fleet from heartbeats and gear, liveness, broker queries, persistence."""
+
+from __future__ import annotations
+
+import pytest
+from ground_fakes import FakeDrone, eventually
+
+from dronefleet.ground.fleet import DroneRecord, DroneStatus, LenientHeartbeat
+from dronefleet.ground.identifier import DroneIdentifier
+from dronefleet.ground.manager.gateway import DroneGateway
+from dronefleet.ground.state import StateStore
+
+
+def hb(drone_id="Q1", interval_s=5.0):
+    return LenientHeartbeat.model_validate(
+        {**FakeDrone(("x", 1), drone_id).heartbeat(), "interval_s": interval_s, "future": 1}
+    )
+
+
+def test_lost_after_three_observed_intervals_and_online_on_the_next():
+    record = DroneRecord.first(hb(), now=100.0)
+    assert record.deadline() == 115.0  # only interval_s known: 3 x 5 s
+    record.observe(hb(), now=100.5)  # a 10x sped-up drone: 0.5 s of wall time per heartbeat
+    assert record.deadline() == pytest.approx(102.5)  # 3 x 0.5 s is under the 2 s floor
+    record.status = DroneStatus.LOST
+    assert record.observe(hb(), now=140.0) is True  # back
+    assert record.status is DroneStatus.ONLINE
+    assert record.heartbeat_interval_s == pytest.approx(0.5)  # the outage gap is not a rate
+
+
+async def test_the_fleet_is_kept_and_answered_over_the_broker(broker, tmp_path):
+    state = await StateStore(tmp_path / "g.db").open()
+    identifier = await DroneIdentifier(broker, state, client_id="id-test").start()
+    gateway = await DroneGateway(broker, state, client_id="gw-test").start()
+    drone = await FakeDrone(broker, "Q1", interval_s=0.1).start()
+    try:
+        record = await eventually(lambda: identifier.fleet.get("Q1"))
+        await eventually(lambda: record.specs and record.sensors)
+        fleet = await gateway.fleet()
+        assert fleet[0]["drone_id"] == "Q1" and fleet[0]["specs"]["frame"] == "quad"
+        # Liveness uses the observed heartbeat rate: wait until it has been measured.
+        await eventually(lambda: record.heartbeat_interval_s < 1.0)
+        await drone.stop()
+        await eventually(lambda: record.status is DroneStatus.LOST, timeout_s=4)
+    finally:
+        await identifier.stop()
+        await gateway.stop()
+    again = await DroneIdentifier(broker, state, client_id="id-test-2").start()
+    try:
+        assert again.fleet["Q1"].status is DroneStatus.LOST
+        assert again.fleet["Q1"].sensors == {"CO2": {"unit": "ppm"}}
+    finally:
+        await again.stop()
+        await state.close()

@@ -1,0 +1,55 @@
+"""The seed's topics (Table 4.4) come from one helper and parse back."""
+
+import pytest
+
+from dronefleet.messaging import topics
+from dronefleet.messaging.client import matches
+from dronefleet.messaging.topics import Channel, Direction, TopicError
+
+
+def test_table_4_4_topics():
+    assert (
+        topics.topic("REVOLUTION_94E041", Channel.CONTROL, Direction.IN)
+        == "REVOLUTION_94E041/control/in"
+    )
+    assert topics.topic("R", Channel.TELEMETRY, Direction.OUT) == "R/telemetry/out"
+    assert topics.any_drone(Channel.HEARTBEATS) == "+/heartbeats/out"
+    assert topics.drone_all("R") == "R/#"
+    assert topics.ground("identifier", "in") == "ground/identifier/in"
+
+
+def test_out_only_channels_have_no_in_topic():
+    with pytest.raises(TopicError):
+        topics.topic("R", Channel.HEARTBEATS, Direction.IN)
+
+
+@pytest.mark.parametrize("bad", ["", "a/b", "+", "#", "ground", "x" * 65, "sp ace"])
+def test_drone_ids_never_contain_wildcards_or_separators(bad):
+    with pytest.raises(TopicError):
+        topics.topic(bad, Channel.CONTROL, Direction.IN)
+
+
+def test_parse_round_trips():
+    parsed = topics.parse("QUAD_1/mission/out")
+    assert (parsed.drone_id, parsed.channel, parsed.direction) == (
+        "QUAD_1",
+        Channel.MISSION,
+        Direction.OUT,
+    )
+    with pytest.raises(TopicError):
+        topics.parse("QUAD_1/nope/out")
+
+
+@pytest.mark.parametrize(
+    ("pattern", "topic_name", "expected"),
+    [
+        ("+/control/out", "Q/control/out", True),
+        ("+/control/out", "Q/control/in", False),
+        ("Q/#", "Q/a/b", True),
+        ("Q/#", "R/a", False),
+        ("a/+", "a/b/c", False),
+        ("a/b", "a/b", True),
+    ],
+)
+def test_filter_matching(pattern, topic_name, expected):
+    assert matches(pattern, topic_name) is expected
