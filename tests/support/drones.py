@@ -84,7 +84,8 @@ class Operator:
             event = self._events[key]
             event.clear()
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(event.wait(), min(remaining, 0.5))
+                async with asyncio.timeout(min(remaining, 0.5)):
+                    await event.wait()
         return result
 
     async def heartbeat(self, drone_id: str, timeout_s: float = 30.0) -> dict[str, Any]:

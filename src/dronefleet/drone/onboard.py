@@ -215,7 +215,8 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
         left_since: float | None = None
         while pending:
             with contextlib.suppress(TimeoutError):
-                event = await asyncio.wait_for(events.get(), 0.25)
+                async with asyncio.timeout(0.25):
+                    event = await events.get()
                 level = max(level, 2 * event.index + (1 if event.kind == "reached" else 0))
             while pending and pending[0][2] <= level:
                 index, step, _ = pending.pop(0)

@@ -140,7 +140,8 @@ class ProtocolFleet(SimFleet):
     async def stop(self) -> None:
         for drone_id, app in list(self.apps.items()):
             try:  # one drone that cannot close its link must not keep the others flying
-                await asyncio.wait_for(app.stop(), STOP_TIMEOUT_S)
+                async with asyncio.timeout(STOP_TIMEOUT_S):
+                    await app.stop()
             except Exception as exc:
                 log.warning("drone %s did not stop cleanly: %r", drone_id, exc)
         self.apps.clear()

@@ -142,4 +142,5 @@ class Harness:
                 raise TimeoutError(f"mission {mission_id} still {state} after {timeout_s} s")
             self._changed.clear()
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._changed.wait(), 0.5)
+                async with asyncio.timeout(0.5):
+                    await self._changed.wait()

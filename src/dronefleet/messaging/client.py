@@ -98,7 +98,8 @@ class BrokerClient:
             self._runner = asyncio.create_task(self._run(), name=f"mqtt:{self.client_id}")
         if timeout_s is not None:
             try:
-                await asyncio.wait_for(self._connected.wait(), timeout_s)
+                async with asyncio.timeout(timeout_s):
+                    await self._connected.wait()
             except TimeoutError as exc:
                 raise BrokerUnavailable(
                     f"broker {self.url} not reachable within {timeout_s:g} s"
@@ -138,7 +139,8 @@ class BrokerClient:
         return self._connected.is_set()
 
     async def wait_connected(self, timeout_s: float | None = None) -> None:
-        await asyncio.wait_for(self._connected.wait(), timeout_s)
+        async with asyncio.timeout(timeout_s):
+            await self._connected.wait()
 
     # -- subscribe / publish -----------------------------------------------------------------
     async def subscribe(self, pattern: str, handler: Handler, *, qos: int = QOS_COMMAND) -> None:
@@ -178,7 +180,8 @@ class BrokerClient:
             if remaining is not None and remaining <= 0:
                 raise BrokerUnavailable(f"broker {self.url} unavailable; {topic_name} not sent")
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._connected.wait(), min(remaining or 1.0, 1.0))
+                async with asyncio.timeout(min(remaining or 1.0, 1.0)):
+                    await self._connected.wait()
             if self._stopping:
                 raise BrokerUnavailable(f"client {self.client_id} stopped; {topic_name} not sent")
 

@@ -51,7 +51,8 @@ class EmbeddedBroker:
         if self._broker is not None:
             broker, self._broker = self._broker, None
             try:
-                await asyncio.wait_for(broker.shutdown(), 10)
+                async with asyncio.timeout(10):
+                    await broker.shutdown()
             except (TimeoutError, Exception) as exc:  # a stuck client must not hang shutdown
                 logging.getLogger(__name__).warning("embedded broker shutdown: %r", exc)
 

@@ -70,7 +70,8 @@ class Requester:
         self._pending[request_id] = future
         try:
             await self.client.publish(topic_name, data, qos=QOS_COMMAND, timeout_s=timeout_s)
-            return await asyncio.wait_for(future, timeout_s)
+            async with asyncio.timeout(timeout_s):
+                return await future
         except TimeoutError as exc:
             raise RequestTimeout(
                 f"no answer on {reply_pattern} to request {request_id} within {timeout_s:g} s"

@@ -99,7 +99,8 @@ class TelemetryConnector:
     async def _flush_loop(self) -> None:
         while True:
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._wake.wait(), self.flush_s)
+                async with asyncio.timeout(self.flush_s):
+                    await self._wake.wait()
             self._wake.clear()
             await self.flush()
 

@@ -89,7 +89,8 @@ class UAVTalkServer:
             await asyncio.sleep(0.01)
         for server in self._servers:
             with contextlib.suppress(Exception):
-                await asyncio.wait_for(server.wait_closed(), 1.0)
+                async with asyncio.timeout(1.0):
+                    await server.wait_closed()
         self._servers.clear()
 
     async def __aenter__(self) -> UAVTalkServer:

@@ -224,7 +224,8 @@ class MavlinkLink:
 
         remove = self.add_listener(match)
         try:
-            return await asyncio.wait_for(future, timeout_s)
+            async with asyncio.timeout(timeout_s):
+                return await future
         except TimeoutError:
             return None
         finally:

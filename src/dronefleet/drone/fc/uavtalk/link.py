@@ -95,7 +95,8 @@ class UAVTalkLink:
             return
         self._closing = False
         try:
-            await asyncio.wait_for(self._connect(), timeout_s)
+            async with asyncio.timeout(timeout_s):
+                await self._connect()
         except (OSError, TimeoutError) as exc:
             raise LinkError(f"no UAVTalk flight controller at {self.url}: {exc}") from exc
         self._task = asyncio.create_task(self._run(), name=f"uavtalk-{self.url}")
@@ -220,7 +221,8 @@ class UAVTalkLink:
     async def wait_update(self, name: str, timeout_s: float) -> dict[str, Any]:
         """Wait for the next update of ``name``; raises :class:`LinkError` after ``timeout_s``."""
         try:
-            await asyncio.wait_for(self._updated[name].wait(), timeout_s)
+            async with asyncio.timeout(timeout_s):
+                await self._updated[name].wait()
         except TimeoutError:
             raise LinkError(f"no {name} from {self.url} for {timeout_s:g} s") from None
         return self._latest.get((name, 0)) or {}
@@ -254,7 +256,8 @@ class UAVTalkLink:
                 self._pending[key] = future
                 self._send(frame)
                 try:
-                    answer = await asyncio.wait_for(future, self.timeout_s)
+                    async with asyncio.timeout(self.timeout_s):
+                        answer = await future
                 except TimeoutError:
                     log.info("%s %s: no answer (try %d)", kind.name, definition.name, attempt + 1)
                     continue
