@@ -97,3 +97,35 @@ async def test_request_matches_answers_by_request_id(embedded_broker):
             )
         )
         assert [a["n"] for a in answers] == [1, 2, 3]
+
+
+async def test_requests_made_while_the_reply_subscription_is_pending_all_get_answers(
+    embedded_broker,
+):
+    """The second of two simultaneous first requests must not publish before the subscription."""
+    async with (
+        BrokerClient(embedded_broker, "server") as server,
+        BrokerClient(embedded_broker, "asker") as asker,
+    ):
+
+        async def echo(topic_name, payload):
+            import orjson
+
+            data = orjson.loads(payload)
+            await server.publish("Y/out", {"request_id": data["request_id"], "n": data["n"]})
+
+        await server.subscribe("Y/in", echo)
+        subscribing = asyncio.Event()
+        real_subscribe = asker.subscribe
+
+        async def slow_subscribe(*args, **kwargs):
+            subscribing.set()
+            await asyncio.sleep(0.3)  # a SUBACK that takes its time
+            await real_subscribe(*args, **kwargs)
+
+        asker.subscribe = slow_subscribe
+        requester = Requester(asker)
+        first = asyncio.create_task(requester.request("Y/in", "Y/out", {"n": 1}, timeout_s=3))
+        await subscribing.wait()
+        second = await requester.request("Y/in", "Y/out", {"n": 2}, timeout_s=3)
+        assert second["n"] == 2 and (await first)["n"] == 1

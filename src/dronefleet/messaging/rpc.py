@@ -32,12 +32,22 @@ class Requester:
     def __init__(self, client: BrokerClient) -> None:
         self.client = client
         self._pending: dict[str, asyncio.Future[dict[str, Any]]] = {}
-        self._patterns: set[str] = set()
+        self._subscribed: dict[str, asyncio.Future[None]] = {}
 
     async def _ensure(self, reply_pattern: str) -> None:
-        if reply_pattern not in self._patterns:
-            self._patterns.add(reply_pattern)
-            await self.client.subscribe(reply_pattern, self._on_reply, qos=QOS_COMMAND)
+        """Subscribe once per pattern; every request (even one made meanwhile) waits for it."""
+        ready = self._subscribed.get(reply_pattern)
+        if ready is None:
+            ready = asyncio.ensure_future(
+                self.client.subscribe(reply_pattern, self._on_reply, qos=QOS_COMMAND)
+            )
+            self._subscribed[reply_pattern] = ready
+        try:
+            await asyncio.shield(ready)
+        except Exception:
+            if self._subscribed.get(reply_pattern) is ready:
+                del self._subscribed[reply_pattern]  # the next request tries again
+            raise
 
     async def _on_reply(self, topic_name: str, payload: bytes) -> None:
         try:
