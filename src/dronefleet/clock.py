@@ -51,3 +51,17 @@ async def wait_until(
             return False
         await clock.sleep(poll_s)
     return True
+
+
+async def sleep_on_estimate(clock: Clock, duration_s: float, max_wall_nap_s: float) -> None:
+    """Sleep ``duration_s`` of a clock that is estimated from a remote one (an autopilot's).
+
+    The wall naps are sized by the clock's current speed-up and capped, so a rate that changes
+    (a sped-up simulator slowing under load) is followed and the deadline is not overslept.
+    """
+    if duration_s <= 0:
+        await asyncio.sleep(0)
+        return
+    deadline = clock.now() + duration_s
+    while (left := deadline - clock.now()) > 0:
+        await asyncio.sleep(min(max(left / max(clock.speedup, 1e-3), 0.0005), max_wall_nap_s))

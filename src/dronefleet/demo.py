@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
-import signal
 import sys
 from pathlib import Path
 from typing import Any
 
 from dronefleet.geo.types import NED
+from dronefleet.signals import stop_event
 
 DEMO_SQUARE = [NED(30, 0), NED(30, 30), NED(0, 30), NED(0, 0)]
 
@@ -79,15 +78,6 @@ def demo_mission(home) -> list[dict[str, Any]]:
     ]
 
 
-def _stop_event() -> asyncio.Event:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):
-            loop.add_signal_handler(sig, stop.set)
-    return stop
-
-
 async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.drone.cli import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
@@ -96,7 +86,7 @@ async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.embedded import EmbeddedBroker
 
-    stop = _stop_event()
+    stop = stop_event()
     home = parse_lla(DEFAULT_HOME)
     state_dir: Path = args.state_dir
     host, port = args.http

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
-import signal
 import sys
 from pathlib import Path
 
 from dronefleet.geo.types import LLA
+from dronefleet.signals import stop_event
 
 DEFAULT_HOME = "40.63,-8.659,10"  # a field on the University of Aveiro campus, the seed's site
 
@@ -101,22 +100,13 @@ def run(args: argparse.Namespace) -> int:
     return asyncio.run(_serve(config, args))
 
 
-def _stop_event() -> asyncio.Event:
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):
-            loop.add_signal_handler(sig, stop.set)
-    return stop
-
-
 async def _serve(config, args: argparse.Namespace) -> int:
     if args.fc != "sim":
         return await _serve_autopilot(config, args)
     from dronefleet.drone.simulated import SimFleet
     from dronefleet.messaging.client import BrokerUnavailable
 
-    stop = _stop_event()
+    stop = stop_event()
     async with SimFleet(speedup=args.speedup, plumes=args.plume) as fleet:
         try:
             app = await fleet.add_drone(
@@ -141,7 +131,7 @@ async def _serve_autopilot(config, args: argparse.Namespace) -> int:
     if not args.fc_url:
         print(f"dronefleet drone: --fc {args.fc} needs --fc-url", file=sys.stderr)
         return 2
-    stop = _stop_event()
+    stop = stop_event()
     try:
         fc, sensors, camera = await open_flight_controller(args.fc, args.fc_url)
     except (BackendUnavailable, FcError, OSError, TimeoutError) as exc:

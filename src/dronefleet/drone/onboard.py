@@ -180,26 +180,21 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
             )
         )
 
+    def about(event: ProgressEvent, index: int, step: Any, **fields: Any) -> None:
+        report(event, step_index=index, step_count=count, command=str(step.command), **fields)
+
     for index, step in onboard.prefix:  # arming: from the companion computer, as usual
         worker.controller.step_index = index
         began = clock.now()
         try:
             result = await worker.execute_step(step)
         except Exception as exc:
-            report(
-                ProgressEvent.FAILED,
-                step_index=index,
-                step_count=count,
-                command=str(step.command),
-                ok=False,
-                error=str(exc),
-            )
+            about(ProgressEvent.FAILED, index, step, ok=False, error=str(exc))
             return
-        report(
+        about(
             ProgressEvent.STEP,
-            step_index=index,
-            step_count=count,
-            command=str(step.command),
+            index,
+            step,
             step_started_s=began,
             step_duration_s=clock.now() - began,
             result=result or None,
@@ -222,11 +217,10 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
                 index, step, _ = pending.pop(0)
                 worker.controller.step_index = index
                 now = clock.now()
-                report(
+                about(
                     ProgressEvent.STEP,
-                    step_index=index,
-                    step_count=count,
-                    command=str(step.command),
+                    index,
+                    step,
                     step_started_s=began,
                     step_duration_s=now - began,
                     result={"on_board": True},
@@ -240,14 +234,7 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
                     reason = (
                         f"the autopilot left the mission (mode {state.mode}, armed: {state.armed})"
                     )
-                    report(
-                        ProgressEvent.FAILED,
-                        step_index=index,
-                        step_count=count,
-                        command=str(step.command),
-                        ok=False,
-                        error=reason,
-                    )
+                    about(ProgressEvent.FAILED, index, step, ok=False, error=reason)
                     return
             else:
                 left_since = None

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
-import signal
 import sys
 from pathlib import Path
+
+from dronefleet.signals import stop_event
 
 
 def _host_port(text: str) -> tuple[str, int]:
@@ -96,11 +96,7 @@ async def _ground(args: argparse.Namespace) -> int:
         print(f"admin token: {services.admin_token}", flush=True)
     if not services.operator_token:
         print("tokens kept from the state store (pass --token to set one)", flush=True)
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):
-            loop.add_signal_handler(sig, stop.set)
+    stop = stop_event()
     await stop.wait()
     await services.stop()
     return 0

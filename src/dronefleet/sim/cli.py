@@ -11,11 +11,11 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
-import signal
 import sys
 from pathlib import Path
 
 from dronefleet.drone.cli import DEFAULT_HOME, parse_lla, parse_plume
+from dronefleet.signals import stop_event
 
 
 def parse_udp(text: str) -> tuple[str, int]:
@@ -92,11 +92,7 @@ async def _serve(args: argparse.Namespace) -> int:
         plumes=args.plume,
         pictures_dir=args.pictures,
     )
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):
-            loop.add_signal_handler(sig, stop.set)
+    stop = stop_event()
     async with server:
         for ep in server.endpoints:
             home = ep.copter.vehicle.home

@@ -10,9 +10,10 @@ clock adds the time before the reboot so that its ``now()`` never runs backwards
 
 from __future__ import annotations
 
-import asyncio
 import collections
 import time
+
+from dronefleet.clock import sleep_on_estimate
 
 #: Wall seconds of stamps kept for the rate estimate.
 _WINDOW_WALL_S = 3.0
@@ -84,12 +85,7 @@ class AutopilotClock:
 
     async def sleep(self, duration_s: float) -> None:
         """Wait until the autopilot's time has advanced by ``duration_s`` vehicle seconds."""
-        if duration_s <= 0:
-            await asyncio.sleep(0)
-            return
-        deadline = self.now() + duration_s
-        while (left := deadline - self.now()) > 0:
-            await asyncio.sleep(min(max(left / self._rate, 0.0005), _MAX_WALL_NAP_S))
+        await sleep_on_estimate(self, duration_s, _MAX_WALL_NAP_S)
 
     def __repr__(self) -> str:
         return f"AutopilotClock(now={self.now():.3f}s, rate={self._rate:.2f})"

@@ -10,9 +10,10 @@ autopilot's time does (a reboot), the clock holds until the new time catches up.
 
 from __future__ import annotations
 
-import asyncio
 import time
 from collections import deque
+
+from dronefleet.clock import sleep_on_estimate
 
 #: Wall seconds of samples the rate estimate looks back over.
 _RATE_WINDOW_WALL_S = 2.0
@@ -60,9 +61,4 @@ class LinkClock:
         return self._rate
 
     async def sleep(self, duration_s: float) -> None:
-        if duration_s <= 0:
-            await asyncio.sleep(0)
-            return
-        deadline = self.now() + duration_s
-        while (left := deadline - self.now()) > 0:
-            await asyncio.sleep(min(left / max(self._rate, 1e-3), _MAX_WAIT_WALL_S))
+        await sleep_on_estimate(self, duration_s, _MAX_WAIT_WALL_S)
