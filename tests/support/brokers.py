@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 import socket
 import subprocess
@@ -34,8 +35,11 @@ def mosquitto(tmp: Path, extra_conf: str = "", port: int | None = None) -> Itera
         )
     port = port or free_port()
     conf = tmp / f"mosquitto-{port}.conf"
+    # As root, Mosquitto would drop to its own user, which cannot write its log or persistence
+    # file into pytest's private tmp folder: a persistent session would then silently not be.
+    user = "user root\n" if os.geteuid() == 0 else ""
     conf.write_text(
-        f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"
+        f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n{user}"
         "set_tcp_nodelay true\n"
         f"log_dest file {tmp}/mosquitto-{port}.log\n{extra_conf}\n"
     )
