@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import json
 import sys
 from pathlib import Path
 from typing import Any
 
 from dronefleet.geo.types import NED
 from dronefleet.signals import stop_event
+
+DEMO_TOKENS = "demo-tokens.json"
 
 DEMO_SQUARE = [NED(30, 0), NED(30, 30), NED(0, 30), NED(0, 0)]
 
@@ -78,11 +82,32 @@ def demo_mission(home) -> list[dict[str, Any]]:
     ]
 
 
+async def _tokens(book: Any, state_dir: Path, given: str | None) -> tuple[str, str]:
+    """The operator and viewer tokens: the ones printed last time, kept in the state folder.
+
+    The ground keeps only hashes; the demo keeps its two tokens in ``demo-tokens.json`` (owner
+    only) so that a restarted demo prints, and accepts, the same ones and an open page stays in.
+    """
+    from dronefleet.ground.manager.auth import Role, new_token
+
+    path = state_dir / DEMO_TOKENS
+    saved: dict[str, Any] = {}
+    with contextlib.suppress(OSError, ValueError):
+        saved = json.loads(path.read_text())
+    operator = given or saved.get("operator") or new_token()
+    viewer = saved.get("viewer") or new_token()
+    await book.issue("operator", Role.OPERATOR, operator)
+    await book.issue("viewer", Role.VIEWER, viewer)
+    path.touch(mode=0o600)
+    path.write_text(json.dumps({"operator": operator, "viewer": viewer}))
+    return operator, viewer
+
+
 async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.drone.cli import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
     from dronefleet.drone.simulated import SimFleet, homes_around
-    from dronefleet.ground.manager.auth import Role, TokenBook
+    from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.embedded import EmbeddedBroker
 
@@ -102,9 +127,7 @@ async def _demo(args: argparse.Namespace) -> int:
         await ground.start()
         try:
             ground.app.state.web_tiles = args.tiles
-            tokens = TokenBook(ground.state)
-            operator = ground.operator_token or await tokens.issue("operator", Role.OPERATOR)
-            viewer = await tokens.issue("viewer", Role.VIEWER)
+            operator, viewer = await _tokens(TokenBook(ground.state), state_dir, args.token)
             async with SimFleet(speedup=args.speedup) as fleet:
                 ids = [f"QUAD_{i + 1}" for i in range(args.drones)]
                 for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):

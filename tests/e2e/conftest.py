@@ -8,12 +8,16 @@ browsers here, so it is pointed at ``/usr/bin/chromium``. Screenshots go to
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
+import socket
 import subprocess
 import sys
 import threading
 import time
+import urllib.error
+import urllib.request
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +54,9 @@ class Demo:
     process: subprocess.Popen
     output: list[str] = field(default_factory=list)
 
+    def stop(self) -> None:
+        stop_process(self.process)
+
 
 def _dronefleet() -> list[str]:
     exe = Path(sys.executable).with_name("dronefleet")
@@ -77,14 +84,25 @@ def stop_process(process: subprocess.Popen) -> None:
             process.wait()
 
 
-@pytest.fixture(scope="session")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Demo]:
-    """``dronefleet demo`` with 3 simulated drones, no demo mission, on a free loopback port."""
-    state = tmp_path_factory.mktemp("demo")
+def free_port() -> int:
+    """A loopback TCP port nobody listens on right now."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def start_demo(
+    state: Path, *options: str, port: int = 0, log: str = "stderr.log", speedup: str = "5"
+) -> Demo:
+    """``dronefleet demo --no-mission`` on 127.0.0.1:`port` (0: free) with `state` as its state dir.
+
+    `options` go on the command line (``--drones 1``, ``--tiles URL``, ...); the caller stops it
+    (``demo.stop()``). Fails the test if the demo does not print its URL and tokens within 60 s.
+    """
     # Speed-up 5, not 10: on a loaded machine the demo's drones then miss no heartbeat deadline.
-    args = [*_dronefleet(), "demo", "--http", "127.0.0.1:0", "--speedup", "5"]
-    args += ["--state-dir", str(state), "--no-mission"]
-    process = start_process(args, state / "stderr.log")
+    args = [*_dronefleet(), "demo", "--http", f"127.0.0.1:{port}", "--speedup", speedup]
+    args += ["--state-dir", str(state), "--no-mission", *options]
+    process = start_process(args, state / log)
     found: dict[str, str] = {}
     seen: list[str] = []
     deadline = time.monotonic() + 60
@@ -99,13 +117,20 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Demo]:
                 found[key] = match.group(1)
     if len(found) < len(LINES):
         stop_process(process)
-        err = (state / "stderr.log").read_text()[-2000:]
+        err = (state / log).read_text()[-2000:]
         pytest.fail(f"dronefleet demo did not print its URL and tokens: {seen!r}\n{err}")
     # Keep draining stdout so the demo never blocks on a full pipe.
     demo = Demo(process=process, **found)
     threading.Thread(target=lambda: demo.output.extend(process.stdout), daemon=True).start()
+    return demo
+
+
+@pytest.fixture(scope="session")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Demo]:
+    """``dronefleet demo`` with 3 simulated drones, no demo mission, on a free loopback port."""
+    demo = start_demo(tmp_path_factory.mktemp("demo"))
     yield demo
-    stop_process(process)
+    demo.stop()
 
 
 @pytest.fixture(scope="session")
@@ -156,20 +181,25 @@ class Console:
 
 @pytest.fixture
 def open_page(browser, demo: Demo):
-    """open_page("planner", token=..., **context_options) → (page, console)."""
+    """open_page("planner", token=..., server=other_demo, **context_options) → (page, console).
+
+    `server` is another demo than the session's (its operator token is the default then).
+    """
     contexts = []
 
-    def open_(name: str, *, token: str | None = None, **options):
+    def open_(name: str, *, token: str | None = None, server: Demo | None = None, **options):
+        server = server or demo
         options.setdefault("viewport", {"width": 1280, "height": 860})
         context = browser.new_context(**options)
         contexts.append(context)
         context.add_init_script(
-            f"localStorage.setItem('dronefleet.token', {token or demo.operator!r});"
+            f"localStorage.setItem('dronefleet.token', {token or server.operator!r});"
         )
         page = context.new_page()
         console = Console(page)
-        page.goto(f"{demo.url}/#/{name}")
+        page.goto(f"{server.url}/#/{name}")
         page.wait_for_selector("#link-state[data-state='live']", timeout=15_000)
+        page.wait_for_selector(f"#page[data-mounted='{name}']", timeout=15_000)
         return page, console
 
     yield open_
@@ -191,3 +221,42 @@ def screenshot():
 def shared() -> dict[str, str]:
     """What one test leaves for the next (the planner's mission id for the replay)."""
     return {}
+
+
+# -- helpers shared by the test modules ------------------------------------------------------------
+def get(demo: Demo, path: str, tries: int = 5, token: str | None = None):
+    """GET /api/v1{path} as the operator (or `token`); a 504 (Identifier slow) is tried again."""
+    request = urllib.request.Request(
+        f"{demo.url}/api/v1{path}", headers={"Authorization": f"Bearer {token or demo.operator}"}
+    )
+    for attempt in range(tries):
+        try:
+            with urllib.request.urlopen(request, timeout=20) as answer:
+                return json.loads(answer.read())
+        except urllib.error.HTTPError as exc:
+            if exc.code != 504 or attempt == tries - 1:
+                raise
+            time.sleep(1)
+
+
+def click_until(page, button: str, done: str, timeout_ms: int = 30_000, tries: int = 3) -> None:
+    """Press `button` until `done` shows (a 504 from a loaded server gets another press)."""
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    for attempt in range(tries):
+        page.click(button)
+        try:
+            page.wait_for_selector(done, timeout=timeout_ms)
+            return
+        except PlaywrightTimeout:
+            if attempt == tries - 1:
+                raise
+
+
+def click_map(page, selector: str, offsets: list[tuple[int, int]]) -> None:
+    """Click the map `selector` at each (dx, dy) pixels from its centre."""
+    box = page.locator(selector).bounding_box()
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    for dx, dy in offsets:
+        page.mouse.click(cx + dx, cy + dy)
+        page.wait_for_timeout(150)  # not a double click

@@ -8,51 +8,14 @@ from __future__ import annotations
 
 import json
 import time
-import urllib.error
-import urllib.request
 from datetime import UTC, datetime
 
 import pytest
-from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from .conftest import start_process, stop_process
+from .conftest import _dronefleet as _cli
+from .conftest import click_map, click_until, get, start_process, stop_process
 
 pytestmark = pytest.mark.e2e
-
-
-def get(demo, path: str, tries: int = 5):
-    """GET /api/v1{path} as the operator; a 504 (Identifier slow under load) is tried again."""
-    request = urllib.request.Request(
-        f"{demo.url}/api/v1{path}", headers={"Authorization": f"Bearer {demo.operator}"}
-    )
-    for attempt in range(tries):
-        try:
-            with urllib.request.urlopen(request, timeout=20) as answer:
-                return json.loads(answer.read())
-        except urllib.error.HTTPError as exc:
-            if exc.code != 504 or attempt == tries - 1:
-                raise
-            time.sleep(1)
-
-
-def click_until(page, button: str, done: str, timeout_ms: int = 30_000, tries: int = 3) -> None:
-    """Press `button` until `done` shows (a 504 from a loaded server gets another press)."""
-    for attempt in range(tries):
-        page.click(button)
-        try:
-            page.wait_for_selector(done, timeout=timeout_ms)
-            return
-        except PlaywrightTimeout:
-            if attempt == tries - 1:
-                raise
-
-
-def click_map(page, selector: str, offsets: list[tuple[int, int]]) -> None:
-    box = page.locator(selector).bounding_box()
-    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-    for dx, dy in offsets:
-        page.mouse.click(cx + dx, cy + dy)
-        page.wait_for_timeout(150)  # not a double click
 
 
 def test_an_area_drawn_in_the_planner_is_flown_to_completion(open_page, screenshot, shared):
@@ -164,9 +127,3 @@ def test_a_viewer_sees_the_fleet_but_cannot_command(open_page, demo):
         demo.viewer,
     )
     assert status == 403
-
-
-def _cli() -> list[str]:
-    from .conftest import _dronefleet
-
-    return _dronefleet()

@@ -106,8 +106,8 @@ class SimFleet:
 
 def homes_around(centre: LLA, count: int, spacing_m: float = 15.0) -> list[LLA]:
     """``count`` home points on a circle around ``centre``, ``spacing_m`` apart."""
-    if count == 1:
-        return [centre]
+    if count <= 1:
+        return [centre][:count]
     radius = spacing_m / (2 * math.sin(math.pi / count))
     return [
         ned_to_lla(

@@ -171,6 +171,7 @@ class BrokerClient:
             if client is not None and self.connected:
                 try:
                     await client.publish(topic_name, payload, qos=qos, retain=retain)
+                    _keep_cancellation()
                     return True
                 except aiomqtt.MqttError as exc:
                     log.debug("publish on %s failed (%s); waiting for the broker", topic_name, exc)
@@ -240,3 +241,16 @@ class BrokerClient:
                 log.exception(
                     "handler for %s failed on a message from %s; dropped", sub.pattern, topic_name
                 )
+
+
+def _keep_cancellation() -> None:
+    """Raise the cancellation aiomqtt may have lost.
+
+    aiomqtt waits for the broker's acknowledgement with Python 3.11's ``asyncio.wait_for``, which
+    returns the result instead of raising when the task is cancelled just as the answer comes.
+    The task's cancel request is still counted, so it is honoured here; otherwise a publishing
+    loop (heartbeats) would never stop and a process would ignore SIGTERM.
+    """
+    task = asyncio.current_task()
+    if task is not None and task.cancelling():
+        raise asyncio.CancelledError

@@ -54,7 +54,9 @@ async function route() {
   const root = document.getElementById("page");
   root.replaceChildren();
   const module = await PAGES[page]();
+  delete root.dataset.mounted;
   current = (await module.mount(root, ctx)) || null;
+  root.dataset.mounted = page; // the page is built and listening (tests wait for this)
 }
 
 function askToken(message) {

@@ -22,6 +22,7 @@ export async function mount(root, ctx) {
   const altitude = el("input", { type: "number", id: "control-altitude", value: "10", min: "1", max: "120", step: "1" });
   const step = el("input", { type: "number", id: "control-step", value: "5", min: "-50", max: "50", step: "1" });
   const result = el("pre", { class: "result", id: "control-result", "aria-live": "polite" });
+  const force = el("input", { type: "checkbox", id: "control-force", disabled: !ctx.me.can_command });
   const buttons = COMMANDS.map((c) => el("button", {
     type: "button", class: `command${c.confirm ? " danger" : ""}`, "data-command": c.command,
     disabled: !ctx.me.can_command, onclick: () => send(c),
@@ -30,7 +31,9 @@ export async function mount(root, ctx) {
   const mapBox = el("div", { class: "map", id: "control-map" });
   root.append(el("h1", {}, "Control"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
     field("Drone", select), field("Take-off altitude (m)", altitude), field("Move by (m)", step),
-    el("div", { class: "buttons" }, ...buttons), goto, result)));
+    el("div", { class: "buttons" }, ...buttons),
+    el("label", { class: "check" }, force, " Force the disarm, even in flight (the motors stop: it falls)"),
+    goto, result)));
 
   function fillDrones() {
     const chosen = select.value;
@@ -42,19 +45,27 @@ export async function mount(root, ctx) {
     const id = select.value;
     if (!id) return toast("no drone selected", "error");
     result.textContent = `${command} → ${id}…`;
+    Object.assign(result.dataset, { command, state: "sending" });
     try {
       const answer = await api(`/drones/${encodeURIComponent(id)}/commands/${command}`, { method: "POST", body });
       result.textContent = JSON.stringify(answer, null, 1);
+      result.dataset.state = "done";
       toast(`${id}: ${command} done`);
     } catch (err) {
       result.textContent = `${command} failed: ${err.message}`;
+      result.dataset.state = "failed";
       toast(`${id}: ${command} failed: ${err.message}`, "error");
     }
   }
 
   function send(c) {
-    if (c.confirm && !window.confirm(`${c.label} ${select.value}? This cannot be undone in flight.`)) return;
+    const forced = c.command === "disarm" && force.checked;
+    const question = forced
+      ? `Force disarm ${select.value}? If it is flying, its motors stop and it falls.`
+      : `${c.label} ${select.value}? This cannot be undone in flight.`;
+    if (c.confirm && !window.confirm(question)) return;
     let body;
+    if (forced) body = { force: true };
     if (c.value === "altitude") body = { value: Number(altitude.value) };
     if (c.value === "step") body = { value: Number(step.value) };
     post(c.command, body);

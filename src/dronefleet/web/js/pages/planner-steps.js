@@ -36,8 +36,13 @@ export function stepEditor(onChange) {
   box.addEventListener("dragover", (e) => e.preventDefault());
   box.addEventListener("drop", (e) => {
     e.preventDefault();
+    // On a step's upper half: before it; on its lower half: after it; elsewhere: at the end.
     const target = e.target.closest("li[data-index]");
-    const at = target ? Number(target.dataset.index) : list.length;
+    let at = list.length;
+    if (target) {
+      const r = target.getBoundingClientRect();
+      at = Number(target.dataset.index) + (e.clientY > r.top + r.height / 2 ? 1 : 0);
+    }
     if (dragFrom !== null) {
       const [moved] = list.splice(dragFrom, 1);
       list.splice(at > dragFrom ? at - 1 : at, 0, moved);
@@ -59,6 +64,8 @@ export function stepEditor(onChange) {
     if (j < 0 || j >= list.length) return;
     [list[i], list[j]] = [list[j], list[i]];
     render();
+    // Keep the keyboard on the moved step: pressing again moves it further.
+    box.querySelector(`li[data-index="${j}"] button[data-move="${by < 0 ? "up" : "down"}"]`).focus();
   }
 
   function render() {
@@ -69,8 +76,8 @@ export function stepEditor(onChange) {
       const item = el("li", { "data-index": i, draggable: "true" },
         el("strong", {}, step.command), ...params,
         el("span", { class: "row-buttons" },
-          el("button", { type: "button", class: "small", "aria-label": `Move step ${i + 1} up`, onclick: () => move(i, -1) }, "↑"),
-          el("button", { type: "button", class: "small", "aria-label": `Move step ${i + 1} down`, onclick: () => move(i, 1) }, "↓"),
+          el("button", { type: "button", class: "small", "data-move": "up", "aria-label": `Move step ${i + 1} up`, onclick: () => move(i, -1) }, "↑"),
+          el("button", { type: "button", class: "small", "data-move": "down", "aria-label": `Move step ${i + 1} down`, onclick: () => move(i, 1) }, "↓"),
           el("button", { type: "button", class: "small", "aria-label": `Remove step ${i + 1}`, onclick: () => { list.splice(i, 1); render(); } }, "✕")));
       item.addEventListener("dragstart", () => { dragFrom = i; });
       return item;
