@@ -7,7 +7,6 @@ browsers here, so it is pointed at ``/usr/bin/chromium``. Screenshots go to
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
@@ -99,7 +98,7 @@ def start_demo(
     `options` go on the command line (``--drones 1``, ``--tiles URL``, ...); the caller stops it
     (``demo.stop()``). Fails the test if the demo does not print its URL and tokens within 60 s.
     """
-    # Speed-up 5, not 10: on a loaded machine the demo's drones then miss no heartbeat deadline.
+    # Speed-up 5 (the demo runs at 2 by default) so that missions end within a test.
     args = [*_dronefleet(), "demo", "--http", f"127.0.0.1:{port}", "--speedup", speedup]
     args += ["--state-dir", str(state), "--no-mission", *options]
     process = start_process(args, state / log)
@@ -150,33 +149,15 @@ def browser() -> Iterator[object]:
 
 
 class Console:
-    """Console errors and uncaught exceptions of one page.
-
-    A 504 ("the Drone Identifier did not answer") is tolerated: on a loaded machine the ground's
-    RPC to the Identifier times out now and then (a server issue, reported); the page shows the
-    reason and keeps what it has, and the tests try again.
-    """
+    """Console errors and uncaught exceptions of one page."""
 
     def __init__(self, page) -> None:
         self.errors: list[str] = []
-        self.tolerated = 0
         page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
         page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
-        page.on("response", self._on_response)
-
-    def _on_response(self, response) -> None:
-        if response.status == 504:
-            self.tolerated += 1
 
     def assert_clean(self) -> None:
-        errors = list(self.errors)
-        for _ in range(self.tolerated):
-            with contextlib.suppress(ValueError):
-                errors.remove(
-                    "Failed to load resource: the server responded with a status of 504 "
-                    "(Gateway Timeout)"
-                )
-        assert not errors, f"console errors: {errors}"
+        assert not self.errors, f"console errors: {self.errors}"
 
 
 @pytest.fixture
@@ -224,33 +205,19 @@ def shared() -> dict[str, str]:
 
 
 # -- helpers shared by the test modules ------------------------------------------------------------
-def get(demo: Demo, path: str, tries: int = 5, token: str | None = None):
-    """GET /api/v1{path} as the operator (or `token`); a 504 (Identifier slow) is tried again."""
+def get(demo: Demo, path: str, token: str | None = None):
+    """GET /api/v1{path} as the operator (or `token`)."""
     request = urllib.request.Request(
         f"{demo.url}/api/v1{path}", headers={"Authorization": f"Bearer {token or demo.operator}"}
     )
-    for attempt in range(tries):
-        try:
-            with urllib.request.urlopen(request, timeout=20) as answer:
-                return json.loads(answer.read())
-        except urllib.error.HTTPError as exc:
-            if exc.code != 504 or attempt == tries - 1:
-                raise
-            time.sleep(1)
+    with urllib.request.urlopen(request, timeout=20) as answer:
+        return json.loads(answer.read())
 
 
-def click_until(page, button: str, done: str, timeout_ms: int = 30_000, tries: int = 3) -> None:
-    """Press `button` until `done` shows (a 504 from a loaded server gets another press)."""
-    from playwright.sync_api import TimeoutError as PlaywrightTimeout
-
-    for attempt in range(tries):
-        page.click(button)
-        try:
-            page.wait_for_selector(done, timeout=timeout_ms)
-            return
-        except PlaywrightTimeout:
-            if attempt == tries - 1:
-                raise
+def click_and_wait(page, button: str, done: str, timeout_ms: int = 30_000) -> None:
+    """Press `button`, then wait until `done` shows."""
+    page.click(button)
+    page.wait_for_selector(done, timeout=timeout_ms)
 
 
 def click_map(page, selector: str, offsets: list[tuple[int, int]]) -> None:

@@ -13,7 +13,7 @@ from datetime import UTC, datetime
 import pytest
 
 from .conftest import _dronefleet as _cli
-from .conftest import click_map, click_until, get, start_process, stop_process
+from .conftest import click_and_wait, click_map, get, start_process, stop_process
 
 pytestmark = pytest.mark.e2e
 
@@ -27,10 +27,10 @@ def test_an_area_drawn_in_the_planner_is_flown_to_completion(open_page, screensh
     assert len(page.input_value("#plan-polygon").splitlines()) == 4
     page.fill("#plan-spacing", "12")
     page.check("#plan-drone-QUAD_1")
-    click_until(page, "#plan-preview", "#estimate-table tbody tr")
+    click_and_wait(page, "#plan-preview", "#estimate-table tbody tr")
     assert "QUAD_1" in page.inner_text("#estimate-table")
     screenshot(page, "1-planner-preview")
-    click_until(page, "#plan-send", "#mission-status[data-state]")
+    click_and_wait(page, "#plan-send", "#mission-status[data-state]")
     page.wait_for_selector("#mission-status[data-state='completed']", timeout=90_000)
     shared["mission"] = page.get_attribute("#mission-status", "data-mission")
     screenshot(page, "1-planner-completed")
@@ -69,7 +69,7 @@ def test_calling_from_a_phone_100_m_away_brings_a_drone(open_page, screenshot, d
         is_mobile=True,
         has_touch=True,
     )
-    click_until(page, "#call-button", "#call-status[data-state='coming']")
+    click_and_wait(page, "#call-button", "#call-status[data-state='coming']")
     screenshot(page, "3-call-coming")
     page.wait_for_selector("#call-status[data-state='arrived']", timeout=90_000)
     screenshot(page, "3-call-arrived")

@@ -68,24 +68,19 @@ def post(demo, path: str, body: dict | None = None) -> int:
         return exc.code
 
 
-def command(page, name: str, act: Callable[[], None], expect: str = "done", tries: int = 3):
+def command(page, name: str, act: Callable[[], None], expect: str = "done"):
     """Do `act` (press a button, click the map); wait for the page to show the drone's answer.
 
-    Returns (the result text, the answer as JSON or None). A 504 from the Drone Identifier comes
-    before the command leaves the ground, so that one is safe to try again.
+    Returns (the result text, the answer as JSON or None).
     """
     result = page.locator("#control-result")
-    for attempt in range(tries):
-        act()
-        page.wait_for_selector(
-            f"#control-result[data-command='{name}']:not([data-state='sending'])", timeout=40_000
-        )
-        text, state = result.inner_text(), result.get_attribute("data-state")
-        if state == "failed" and "Identifier did not answer" in text and attempt < tries - 1:
-            continue
-        assert state == expect, f"{name}: expected {expect}, the page shows {text!r}"
-        return text, (json.loads(text) if state == "done" else None)
-    raise AssertionError("unreachable")
+    act()
+    page.wait_for_selector(
+        f"#control-result[data-command='{name}']:not([data-state='sending'])", timeout=40_000
+    )
+    text, state = result.inner_text(), result.get_attribute("data-state")
+    assert state == expect, f"{name}: expected {expect}, the page shows {text!r}"
+    return text, (json.loads(text) if state == "done" else None)
 
 
 def wait_for_option(page, state: str) -> None:
@@ -236,15 +231,12 @@ def corners(page) -> list[tuple[float, float]]:
     return [tuple(float(v) for v in line.split(",")) for line in lines]
 
 
-def preview(page, tries: int = 3):
-    """Press Preview; the /missions/preview response (a 504 from a loaded server: again)."""
-    for attempt in range(tries):
-        with page.expect_response(lambda r: r.url.endswith("/missions/preview")) as info:
-            page.click("#plan-preview")
-        if info.value.status != 504 or attempt == tries - 1:
-            assert info.value.ok, f"preview: {info.value.status} {info.value.text()}"
-            return info.value
-    raise AssertionError("unreachable")
+def preview(page):
+    """Press Preview; the /missions/preview response."""
+    with page.expect_response(lambda r: r.url.endswith("/missions/preview")) as info:
+        page.click("#plan-preview")
+    assert info.value.ok, f"preview: {info.value.status} {info.value.text()}"
+    return info.value
 
 
 def test_planner_three_clicks_make_a_parallelogram_and_overlap_sets_the_lines(open_page):
