@@ -547,6 +547,22 @@ def test_the_tokens_a_demo_printed_still_work_after_it_restarts(tmp_path):
         second.stop()
 
 
+# -- 7. Alarms ------------------------------------------------------------------------------------
+def test_an_alarm_shows_on_the_fleet_page_as_it_comes(open_page, demo, screenshot):
+    page, console = open_page("fleet")
+    row = "#fleet-table tr[data-drone='QUAD_1']"
+    page.wait_for_selector(row)
+    assert page.get_attribute(row, "data-alarm") == ""
+    alarm = {"command": "virtualalarm", "level": "OUT_MEASURE", "message": "CO2 above bounds"}
+    assert post(demo, "/drones/QUAD_1/mission", {"steps": [alarm]}) == 200
+    page.wait_for_selector(f"{row}[data-alarm='OUT_MEASURE']", timeout=20_000)
+    assert "OUT_MEASURE CO2 above bounds" in page.inner_text(f"{row} td.alarm")
+    toast = page.locator(".toast.error", has_text="alarm from QUAD_1")
+    assert toast.count() == 1 and "CO2 above bounds" in toast.inner_text()
+    screenshot(page, "7-fleet-alarm")
+    console.assert_clean()
+
+
 # -- 6. Phone and desktop --------------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("width", "height", "phone"), [(390, 844, True), (1280, 860, False)], ids=["phone", "desktop"]

@@ -54,6 +54,9 @@ export class Fleet extends EventTarget {
     } else if (msg.kind === "telemetry" && id && this.drones.has(id)) {
       const f = data.fields || {};
       if (Number.isFinite(f.yaw_deg)) this.drones.get(id).heading_deg = f.yaw_deg;
+    } else if (msg.kind === "alarm" && id) {
+      this.merge(id, { alarm: { level: data.level || "ALARM", message: data.message || "", at: Date.now() / 1000 } });
+      this.changed();
     } else if (msg.kind === "fleet" && id) {
       const status = data.event === "lost" ? "lost" : "online";
       this.merge(id, { ...(data.drone || {}), status });

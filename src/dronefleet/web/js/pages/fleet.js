@@ -9,7 +9,7 @@ export async function mount(root, ctx) {
   const body = el("tbody");
   const table = el("table", { class: "grid", id: "fleet-table" },
     el("caption", {}, "Drones"),
-    el("thead", {}, el("tr", {}, ...["Drone", "State", "Battery", "Mode", "Mission", "Last seen"].map((h) => el("th", { scope: "col" }, h)))),
+    el("thead", {}, el("tr", {}, ...["Drone", "State", "Battery", "Mode", "Mission", "Last alarm", "Last seen"].map((h) => el("th", { scope: "col" }, h)))),
     body);
   root.append(el("h1", {}, "Fleet"), el("div", { class: "split" }, mapBox, el("div", { class: "side" }, table)));
   const map = await makeMap(mapBox);
@@ -18,12 +18,13 @@ export async function mount(root, ctx) {
 
   function render() {
     const drones = ctx.fleet.list();
-    body.replaceChildren(...drones.map((d) => el("tr", { "data-drone": d.drone_id, "data-status": d.status || "", class: d.status === "lost" ? "lost" : "" },
+    body.replaceChildren(...drones.map((d) => el("tr", { "data-drone": d.drone_id, "data-status": d.status || "", "data-alarm": d.alarm ? d.alarm.level : "", class: d.status === "lost" ? "lost" : "" },
       el("th", { scope: "row" }, el("span", { class: "dot", style: `background:${stateColor(d)}` }), d.drone_id),
       el("td", { class: "state" }, d.status === "lost" ? "LOST" : d.state || "—"),
       el("td", {}, d.battery ? `${d.battery.remaining_pct.toFixed(0)} %` : "—"),
       el("td", {}, d.mode || "—"),
       el("td", {}, d.mission_id || "—"),
+      el("td", { class: d.alarm ? "alarm" : "" }, d.alarm ? `${d.alarm.level} ${d.alarm.message} (${fmtAgo(Date.now() / 1000 - d.alarm.at)})` : "—"),
       el("td", {}, fmtAgo(d.last_seen ? Math.max(0, Date.now() / 1000 - d.last_seen) : d.seen_ago_s)))));
     const points = [];
     for (const d of drones) {
