@@ -1,11 +1,14 @@
 """Stage 5 of the coverage pipeline: turn the route into the points a drone flies to.
 
 Stopping surveys (the seed's) get a waypoint every ``spacing`` metres or less along each swath,
-both ends included — the seed's ``step_distance`` grid. Fly-through surveys get only each swath's
-two ends; the camera fires on distance in between. Transits between swaths bend round holes and
-concavities (:mod:`.router`). Finally :class:`GapFiller` checks the promise that every point of
-the area lies within half a spacing of the path, and where it does not (a spike between two
-swaths, a corner a swath misses) adds a short out-and-back spur inside the area.
+both ends included — the seed's ``step_distance`` grid. On a footprint grid (``cell_centres``)
+the stops are the centres of the swath's cells, ``spacing`` or less long, and the swath's ends
+are passed without stopping: the path is the same, every point of the area is as near a stop as
+before (half a cell's diagonal), and each swath has one stop fewer. Fly-through surveys get only
+each swath's two ends; the camera fires on distance in between. Transits between swaths bend
+round holes and concavities (:mod:`.router`). Finally :class:`GapFiller` checks the promise that
+every point of the area lies within half a spacing of the path, and where it does not (a spike
+between two swaths, a corner a swath misses) adds a short out-and-back spur inside the area.
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ class PathBuilder:
     fly_through: bool = False
     trigger_m: float = 0.0
     photo_at_work: bool = False
+    cell_centres: bool = False
 
     def _work(self, a: XY, b: XY) -> list[RoutePoint]:
         length = math.dist(a, b)
@@ -67,6 +71,12 @@ class PathBuilder:
         if n <= 0:
             return [RoutePoint((a[0] + b[0]) / 2, (a[1] + b[1]) / 2, Kind.WORK, photos=photo)]
         dx, dy = (b[0] - a[0]) / n, (b[1] - a[1]) / n
+        if self.cell_centres:
+            stops = [
+                RoutePoint(a[0] + (k + 0.5) * dx, a[1] + (k + 0.5) * dy, Kind.WORK, photos=photo)
+                for k in range(n)
+            ]
+            return [RoutePoint(*a, Kind.TRANSIT), *stops, RoutePoint(*b, Kind.TRANSIT)]
         return [
             RoutePoint(a[0] + k * dx, a[1] + k * dy, Kind.WORK, photos=photo) for k in range(n + 1)
         ]

@@ -18,7 +18,7 @@ from dronefleet.ground.planner.coverage.plan import CoveragePlan
 from dronefleet.ground.planner.coverage.project import LocalProjection
 from dronefleet.ground.planner.coverage.route import BoustrophedonOrderer
 from dronefleet.ground.planner.coverage.router import InAreaRouter
-from dronefleet.ground.planner.coverage.spec import Action, AreaSpec
+from dronefleet.ground.planner.coverage.spec import Action, AreaSpec, Grid
 from dronefleet.ground.planner.coverage.swaths import (
     AngleChooser,
     SwathGenerator,
@@ -64,7 +64,9 @@ class CoveragePipeline:
         router = InAreaRouter(sweep_area)
         photo = spec.action == Action.TAKEPIC
         trigger = spec.trigger_m if spec.fly_through else 0.0
-        builder = PathBuilder(spacing, spec.fly_through, trigger, photo)
+        # On the footprint grid, stops that do something are made at the centres of the cells.
+        centres = spec.grid == Grid.INSET and spec.action != Action.NONE
+        builder = PathBuilder(spacing, spec.fly_through, trigger, photo, centres)
         points = builder.build(passes, router)
         uncovered = 0.0
         if self.fill_gaps:
