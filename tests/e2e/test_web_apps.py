@@ -7,6 +7,7 @@ a phone, see a drone lost, read a past stretch of telemetry. Every page must log
 from __future__ import annotations
 
 import json
+import re
 import time
 from datetime import UTC, datetime
 
@@ -69,10 +70,20 @@ def test_calling_from_a_phone_100_m_away_brings_a_drone(open_page, screenshot, d
         is_mobile=True,
         has_touch=True,
     )
+    page.evaluate(  # every ETA the page shows, as it shows it
+        """() => { window.etas = [];
+             new MutationObserver(() => {
+               const eta = document.getElementById('call-status').dataset.etaS;
+               if (eta && eta !== window.etas.at(-1)) window.etas.push(eta);
+             }).observe(document.getElementById('call-status'), {attributes: true}); }"""
+    )
     click_and_wait(page, "#call-button", "#call-status[data-state='coming']")
+    assert re.search(r"QUAD_\d is coming: \d+ m away, about \d", page.inner_text("#call-status"))
     screenshot(page, "3-call-coming")
     page.wait_for_selector("#call-status[data-state='arrived']", timeout=90_000)
     screenshot(page, "3-call-arrived")
+    etas = [float(e) for e in page.evaluate("window.etas")]
+    assert len(etas) >= 3 and etas[-1] == 0 and max(etas) > etas[-2] > 0, etas
     console.assert_clean()
 
 

@@ -4,7 +4,8 @@ import { droneIcon, latLngOf, makeMap } from "../map.js";
 import { distanceM, el, fmtDuration } from "../ui.js";
 
 const L = window.L;
-const SPEED_MPS = 5; // what the ETA assumes when the drone's own speed is unknown
+const SPEED_MPS = 5; // what the ETA assumes until the drone's approach has been seen
+const WINDOW_MS = 3000; // the approach speed is measured over this much of the recent past
 
 export async function mount(root, ctx) {
   const button = el("button", { type: "button", id: "call-button", class: "call", disabled: !ctx.me.can_command }, "Call drone");
@@ -13,7 +14,17 @@ export async function mount(root, ctx) {
   const mapBox = el("div", { class: "map small", id: "call-map" });
   root.append(el("section", { class: "phone" }, el("h1", {}, "Call a drone"), button, info, mapBox));
   const map = await makeMap(mapBox);
-  const s = { me: null, mission: null, drone: null, marker: null, arrived: false };
+  const s = { me: null, mission: null, drone: null, marker: null, arrived: false, seen: [] };
+
+  /** Metres a second the drone has been closing in, over the last few seconds (or null). */
+  function approachSpeed(dist) {
+    const now = performance.now();
+    s.seen.push([now, dist]);
+    while (s.seen.length > 2 && now - s.seen[0][0] > WINDOW_MS) s.seen.shift();
+    const [t0, d0] = s.seen[0];
+    const speed = (d0 - dist) / ((now - t0) / 1000);
+    return now - t0 > 500 && speed > 0.5 ? speed : null;
+  }
 
   function where() {
     return new Promise((resolve, reject) => {
@@ -54,10 +65,12 @@ export async function mount(root, ctx) {
     const dist = distanceM(s.me, d.position);
     const close = dist < 3 && (d.position.relative_alt_m || 0) > 2;
     if (close) s.arrived = true;
+    const eta = dist / (approachSpeed(dist) || SPEED_MPS);
     info.dataset.state = s.arrived ? "arrived" : "coming";
+    info.dataset.etaS = s.arrived ? "0" : eta.toFixed(1);
     info.textContent = s.arrived
       ? `${s.drone} is here, hovering above you.`
-      : `${s.drone} is coming: ${dist.toFixed(0)} m away, about ${fmtDuration(dist / SPEED_MPS)}.`;
+      : `${s.drone} is coming: ${dist.toFixed(0)} m away, about ${fmtDuration(eta)}.`;
   }
 
   ctx.fleet.addEventListener("change", update);
