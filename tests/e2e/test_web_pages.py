@@ -53,8 +53,8 @@ def wait_for_drone(demo, what: str, check: Callable[[dict], bool], timeout_s: fl
         time.sleep(0.3)
 
 
-def post(demo, path: str, body: dict | None = None) -> int:
-    """POST /api/v1{path} as the operator; the status (for clean-ups)."""
+def post_for(demo, path: str, body: dict | None = None) -> tuple[int, bytes]:
+    """POST /api/v1{path} as the operator; the status and the body of the answer."""
     request = urllib.request.Request(
         f"{demo.url}/api/v1{path}",
         data=json.dumps(body or {}).encode(),
@@ -63,9 +63,14 @@ def post(demo, path: str, body: dict | None = None) -> int:
     )
     try:
         with urllib.request.urlopen(request, timeout=20) as answer:
-            return answer.status
+            return answer.status, answer.read()
     except urllib.error.HTTPError as exc:
-        return exc.code
+        return exc.code, exc.read()
+
+
+def post(demo, path: str, body: dict | None = None) -> int:
+    """POST /api/v1{path} as the operator; the status (for clean-ups)."""
+    return post_for(demo, path, body)[0]
 
 
 def command(page, name: str, act: Callable[[], None], expect: str = "done"):
@@ -560,6 +565,44 @@ def test_an_alarm_shows_on_the_fleet_page_as_it_comes(open_page, demo, screensho
     toast = page.locator(".toast.error", has_text="alarm from QUAD_1")
     assert toast.count() == 1 and "CO2 above bounds" in toast.inner_text()
     screenshot(page, "7-fleet-alarm")
+    console.assert_clean()
+
+
+# -- 8. Handovers on the planner's map -------------------------------------------------------------
+def test_the_planner_shows_where_a_handover_happened(open_page, demo, screenshot):
+    here = get(demo, "/drones/QUAD_1")["position"]
+    steps: list[dict] = []
+    for k, (north, east) in enumerate([(20, 0), (20, 20), (0, 20), (0, 0)], start=1):
+        lat = here["lat"] + north / M_PER_DEG
+        lon = here["lon"] + east / (M_PER_DEG * math.cos(math.radians(here["lat"])))
+        steps += [
+            {"command": "navigate", "lat": lat, "lon": lon, "altitude_delta": 10},
+            {"command": "wait_for_flight"},
+        ]
+        if k == 2:  # the seed's virtual alarm: this drone must be replaced here
+            steps.append({"command": "virtualalarm", "level": "CRITICAL", "message": "smoke"})
+    page, console = open_page("planner")
+    spec = {
+        "name": "handover",
+        "drones": ["QUAD_1"],
+        "steps": steps,
+        "options": {"early_replacement": False, "collaboration": False},
+    }
+    status, answer = post_for(demo, "/missions?start=true", spec)
+    assert status == 201, answer
+    mission = json.loads(answer)["mission_id"]
+    page.focus("#plan-watch")  # the list of missions is read when it is opened
+    page.wait_for_selector(f"#plan-watch option[value='{mission}']", state="attached")
+    page.select_option("#plan-watch", mission)
+    done = f"#mission-status[data-mission='{mission}'][data-state='completed']"
+    page.wait_for_selector(done, timeout=120_000)
+    page.wait_for_selector("#mission-status[data-handovers='1']")
+    label = page.locator(".handover-label")
+    assert label.count() == 1
+    taker = re.fullmatch(r"handover: QUAD_1 → (QUAD_\d) \(on alarm\)", label.inner_text())
+    assert taker and taker.group(1) != "QUAD_1", label.inner_text()
+    assert "4/4 waypoints" in page.inner_text("#mission-status")
+    screenshot(page, "8-planner-handover")
     console.assert_clean()
 
 

@@ -25,6 +25,7 @@ export async function mount(root, ctx) {
   };
   const drones = el("fieldset", { class: "drones", id: "plan-drones" }, el("legend", {}, "Drones"));
   const status = el("div", { id: "mission-status", class: "status", role: "status", "aria-live": "polite" }, "No mission sent yet.");
+  const watch = el("select", { id: "plan-watch" }, el("option", { value: "" }, "— the one sent from here —"));
   const estimate = el("div", { id: "plan-estimate" });
   const editor = stepEditor(() => {});
   const mapBox = el("div", { class: "map", id: "planner-map" });
@@ -55,7 +56,24 @@ export async function mount(root, ctx) {
     el("div", { class: "buttons" },
       btn("plan-preview", "Preview", preview, { disabled: !can }),
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
-    estimate, status)));
+    estimate, field("Watch a mission", watch), status)));
+
+  async function fillWatch() {
+    try {
+      const have = new Set([...watch.options].map((o) => o.value));
+      for (const m of await api("/missions")) {
+        if (!have.has(m.mission_id)) watch.append(el("option", { value: m.mission_id }, `${m.mission_id} — ${m.name || ""}`));
+      }
+    } catch { /* the list stays as it was; the stream keeps the status */ }
+  }
+  watch.addEventListener("focus", fillWatch);
+  watch.addEventListener("change", () => {
+    if (!watch.value) return;
+    s.missionId = watch.value;
+    for (const t of trails.values()) t.setLatLngs([]);
+    poll();
+  });
+  fillWatch();
 
   const map = await makeMap(mapBox);
   const shape = L.polygon([], { color: "#2563eb", weight: 2, fillOpacity: 0.1 }).addTo(map);
@@ -64,6 +82,7 @@ export async function mount(root, ctx) {
   const waypoints = L.layerGroup().addTo(map);
   const markers = new Map();
   const trails = new Map();
+  const handoverLayer = L.layerGroup().addTo(map);
 
   function setMode(mode) {
     s.mode = mode;
@@ -172,9 +191,25 @@ export async function mount(root, ctx) {
   }
 
   function showMission(m) {
+    // The stream's summary counts the handovers; the mission itself (GET) lists them.
+    const handovers = Array.isArray(m.handovers) ? m.handovers.length : m.handovers;
     status.dataset.state = m.state;
     status.dataset.mission = m.mission_id;
-    status.textContent = `Mission ${m.mission_id}: ${m.state} — ${m.steps_done}/${m.steps} steps, ${m.waypoints_reached}/${m.waypoints} waypoints, ${m.handovers} handover(s)${m.error ? ` — ${m.error}` : ""}`;
+    status.dataset.handovers = String(handovers ?? 0);
+    status.textContent = `Mission ${m.mission_id}: ${m.state} — ${m.steps_done}/${m.steps} steps, ${m.waypoints_reached}/${m.waypoints} waypoints, ${handovers} handover(s)${m.error ? ` — ${m.error}` : ""}`;
+    if (Array.isArray(m.handovers)) showHandovers(m.handovers);
+  }
+
+  /** Where each handover happened: a marker saying which drone took over from which. */
+  function showHandovers(list) {
+    handoverLayer.clearLayers();
+    for (const h of list) {
+      const at = h.resume_position;
+      if (!at) continue;
+      const text = `handover: ${h.from_drone} → ${h.to_drone || "nobody"} (${h.kind || ""})`;
+      L.circleMarker([at.lat, at.lon], { radius: 9, color: "#dc2626", weight: 3, fill: false, className: "handover-marker" })
+        .bindTooltip(text, { permanent: true, direction: "right", className: "handover-label" }).addTo(handoverLayer);
+    }
   }
 
   function fillDrones() {
