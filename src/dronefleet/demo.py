@@ -38,7 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--speedup", type=float, default=2.0, help="vehicle seconds per wall second")
     p.add_argument("--drones", type=int, default=3, help="simulated drones to start")
-    p.add_argument("--state-dir", type=Path, default=Path("var/demo"), help="databases and logs")
+    p.add_argument(
+        "--state-dir", type=Path, default=Path("var/demo"), help="databases, logs and tokens"
+    )
     p.add_argument("--tiles", help="map tile URL template; none: an offline grid is drawn")
     p.add_argument("--token", help="use this operator token instead of a fresh one")
     p.add_argument("--no-mission", action="store_true", help="do not fly the demo mission")
