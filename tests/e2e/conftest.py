@@ -36,6 +36,9 @@ CHROMIUM_ARGS = [
     "--disable-component-update",
     "--disable-sync",
 ]
+#: Metres in a degree of latitude (and of longitude at the equator), for small offsets.
+M_PER_DEG = 111_320.0
+
 LINES = {
     "url": re.compile(r"^web UI: (\S+?)/?$"),
     "operator": re.compile(r"^operator token: (\S+)$"),
@@ -212,6 +215,26 @@ def get(demo: Demo, path: str, token: str | None = None):
     )
     with urllib.request.urlopen(request, timeout=20) as answer:
         return json.loads(answer.read())
+
+
+def post_for(demo, path: str, body: dict | None = None) -> tuple[int, bytes]:
+    """POST /api/v1{path} as the operator; the status and the body of the answer."""
+    request = urllib.request.Request(
+        f"{demo.url}/api/v1{path}",
+        data=json.dumps(body or {}).encode(),
+        headers={"Authorization": f"Bearer {demo.operator}", "Content-Type": "application/json"},
+        method="POST",
+    )
+    try:
+        with urllib.request.urlopen(request, timeout=20) as answer:
+            return answer.status, answer.read()
+    except urllib.error.HTTPError as exc:
+        return exc.code, exc.read()
+
+
+def post(demo, path: str, body: dict | None = None) -> int:
+    """POST /api/v1{path} as the operator; the status (for clean-ups)."""
+    return post_for(demo, path, body)[0]
 
 
 def click_and_wait(page, button: str, done: str, timeout_ms: int = 30_000) -> None:

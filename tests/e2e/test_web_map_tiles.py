@@ -1,0 +1,127 @@
+"""The map without a tile server (an offline grid, loopback only) and with one (`--tiles URL`)."""
+
+from __future__ import annotations
+
+import math
+import re
+import struct
+import threading
+import zlib
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from urllib.parse import urlsplit
+
+import pytest
+
+from .conftest import get, start_demo
+
+pytestmark = pytest.mark.e2e
+
+LOOPBACK = {"127.0.0.1", "localhost"}
+
+
+def loaded_urls(page) -> list[str]:
+    return page.evaluate("performance.getEntriesByType('resource').map((e) => e.name)")
+
+
+def test_without_a_tile_url_the_map_draws_the_offline_grid(open_page, demo):
+    assert get(demo, "/web/config") == {"tiles": None}
+    page, console = open_page("fleet")
+    requests: list[str] = []
+    page.on("request", lambda r: requests.append(r.url))
+    page.wait_for_selector("#fleet-map[data-ready='1'] .leaflet-tile-container canvas.leaflet-tile")
+    page.click("#fleet-map .leaflet-control-zoom-out")  # a new zoom level: new grid tiles
+    page.wait_for_function(
+        "document.querySelectorAll('#fleet-map canvas.leaflet-tile').length >= 4", timeout=10_000
+    )
+    assert page.locator("#fleet-map img.leaflet-tile").count() == 0
+    # The grid: a light fill with a line every 64 px.
+    fill, line = page.evaluate(
+        """() => {
+             const g = document.querySelector('#fleet-map canvas.leaflet-tile').getContext('2d');
+             return [[10, 10], [64, 10]].map(([x, y]) => [...g.getImageData(x, y, 1, 1).data]);
+           }"""
+    )
+    assert fill == [244, 246, 248, 255] and line == [221, 226, 231, 255], (fill, line)
+    hosts = {urlsplit(u).hostname for u in [*loaded_urls(page), *requests]}
+    assert hosts <= LOOPBACK, f"requests left the machine: {hosts}"
+    console.assert_clean()
+
+
+def png(width: int = 256, height: int = 256, rgb: tuple[int, int, int] = (170, 211, 223)) -> bytes:
+    """A plain PNG: signature, IHDR, one zlib IDAT of filter-0 rows, IEND."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (
+            struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        )
+
+    rows = b"".join(b"\0" + bytes(rgb) * width for _ in range(height))
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8-bit RGB
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(rows))
+        + chunk(b"IEND", b"")
+    )
+
+
+class TileServer:
+    """A loopback HTTP server answering every GET with one PNG; it keeps the paths asked for."""
+
+    def __init__(self) -> None:
+        self.paths: list[str] = []
+        body, paths = png(), self.paths
+
+        class Handler(BaseHTTPRequestHandler):
+            def do_GET(self) -> None:
+                paths.append(self.path)
+                self.send_response(200)
+                self.send_header("Content-Type", "image/png")
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *args) -> None:
+                pass
+
+        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.server.server_address[1]}"
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def close(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()
+
+
+def tile_of(lat: float, lon: float, z: int) -> tuple[int, int]:
+    """The slippy-map tile (x, y) holding lat, lon at zoom z."""
+    n = 2**z
+    x = int((lon + 180) / 360 * n)
+    y = int((1 - math.asinh(math.tan(math.radians(lat))) / math.pi) / 2 * n)
+    return x, y
+
+
+def test_with_a_tile_url_the_map_loads_tiles_from_it(open_page, tmp_path):
+    tiles = TileServer()
+    template = f"{tiles.url}/{{z}}/{{x}}/{{y}}.png"
+    server = start_demo(tmp_path, "--drones", "1", "--tiles", template)
+    try:
+        assert get(server, "/web/config") == {"tiles": template}
+        page, console = open_page("fleet", server=server)
+        page.wait_for_selector("#fleet-map img.leaflet-tile-loaded", timeout=20_000)
+        page.wait_for_selector("#fleet-table tr[data-drone='QUAD_1']")
+        where = get(server, "/drones/QUAD_1")["position"]
+        asked = [re.fullmatch(r"/(\d+)/(\d+)/(\d+)\.png", p) for p in list(tiles.paths)]
+        assert asked and all(asked), f"not /z/x/y.png: {tiles.paths}"
+        found = {tuple(int(v) for v in m.groups()) for m in asked}
+        assert all(z <= 19 for z, _, _ in found), found  # maxNativeZoom: no deeper
+        assert any((z, *tile_of(where["lat"], where["lon"], z)) in found for z, _, _ in found), (
+            f"no tile under the drone at {where}: {sorted(found)}"
+        )
+        # The offline grid stays underneath; nothing but loopback was asked.
+        assert page.locator("#fleet-map canvas.leaflet-tile").count() > 0
+        assert {urlsplit(u).hostname for u in loaded_urls(page)} <= LOOPBACK
+        console.assert_clean()
+    finally:
+        server.stop()
+        tiles.close()

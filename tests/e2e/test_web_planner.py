@@ -1,0 +1,179 @@
+"""The Planner page end to end: three-click parallelograms, camera spacing and overlap, the step
+list (drag and drop, keyboard), and a mission watched through a handover.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import pytest
+
+from .conftest import M_PER_DEG, click_map, get, post_for
+
+pytestmark = pytest.mark.e2e
+
+DRONE = "QUAD_2"  # previewed only here
+
+
+def corners(page) -> list[tuple[float, float]]:
+    lines = page.input_value("#plan-polygon").splitlines()
+    return [tuple(float(v) for v in line.split(",")) for line in lines]
+
+
+def preview(page):
+    """Press Preview; the /missions/preview response."""
+    with page.expect_response(lambda r: r.url.endswith("/missions/preview")) as info:
+        page.click("#plan-preview")
+    assert info.value.ok, f"preview: {info.value.status} {info.value.text()}"
+    return info.value
+
+
+def test_planner_three_clicks_make_a_parallelogram_and_overlap_sets_the_lines(open_page):
+    page, console = open_page("planner")
+    page.wait_for_selector(f"#plan-drone-{DRONE}")
+    page.wait_for_selector("#planner-map .drone-label")  # the map is centred on the fleet
+    page.click("#draw-three")
+    assert page.get_attribute("#draw-three", "aria-pressed") == "true"
+    assert page.get_attribute("#draw-polygon", "aria-pressed") == "false"
+    click_map(page, "#planner-map", [(-90, 40), (60, 90)])
+    assert len(corners(page)) == 2  # not a shape yet
+    click_map(page, "#planner-map", [(100, -70)])
+    a, b, c, d = corners(page)
+    # The fourth corner closes the parallelogram: d = a + c - b.
+    assert d == pytest.approx((a[0] + c[0] - b[0], a[1] + c[1] - b[1]), abs=3e-7)
+    assert b[1] > a[1] and c[0] > b[0]  # b east of a, c north of b: as clicked
+    shapes = [
+        p.get_attribute("d")
+        for p in page.locator("#planner-map path[stroke='#2563eb']").all()
+        if "a" not in (p.get_attribute("d") or "a")  # not the corner circles
+    ]
+    assert [s.count("L") for s in shapes] == [3], shapes  # one four-cornered polygon
+
+    # Spacing from the seed's camera: more side overlap, closer lines, more waypoints.
+    page.select_option("#plan-spacing-kind", "camera")
+    page.fill("#plan-altitude", "15")
+    page.check(f"#plan-drone-{DRONE}")
+    waypoints = {}
+    for overlap in (0.3, 0.8):
+        page.fill("#plan-side-overlap", str(overlap))
+        answer = preview(page)
+        area = answer.request.post_data_json["area"]
+        assert "spacing_m" not in area and area["camera"]["side_overlap"] == overlap
+        body = answer.json()
+        footprint = 6.17 / 2.77 * 15  # sensor width / focal length * altitude
+        assert body["spacing_m"] == pytest.approx(footprint * (1 - overlap), rel=0.02)
+        waypoints[overlap] = len(body["waypoints"])
+        page.wait_for_selector(
+            f"#estimate-table caption:text-matches('^{waypoints[overlap]} waypoints')"
+        )
+    assert waypoints[0.8] > waypoints[0.3] > 0, waypoints
+    console.assert_clean()
+
+
+def test_planner_step_list_is_built_by_drag_and_drop_and_reordered_by_keyboard(open_page):
+    page, console = open_page("planner")
+    page.wait_for_selector(f"#plan-drone-{DRONE}")
+    page.select_option("#plan-kind", "steps")
+    step_list = page.locator("#step-list")
+    step_list.wait_for()
+
+    def order() -> list[str]:
+        return page.locator("#step-list > li > strong").all_inner_texts()
+
+    def step(i: int):
+        return page.locator(f"#step-list > li[data-index='{i}']")
+
+    def drag(source, target, where: str | None = None) -> None:
+        """Drag by the item's name (left) onto `target`'s top or bottom edge (or its middle)."""
+        size = target.bounding_box()
+        y = {"top": 4, "bottom": size["height"] - 4, None: size["height"] / 2}[where]
+        grab = source.bounding_box()
+        source.drag_to(
+            target,
+            source_position={"x": 8, "y": grab["height"] / 2},
+            target_position={"x": 8, "y": y},
+        )
+
+    def palette(name: str):
+        return page.locator(f".palette li[data-command='{name}']")
+
+    # From the palette into the list: on a step's top half goes before it, bottom half after it.
+    drag(palette("arm"), step_list)
+    assert order() == ["arm"]
+    drag(palette("land"), step(0), "bottom")
+    assert order() == ["arm", "land"]
+    drag(palette("takeoff"), step(1), "top")
+    assert order() == ["arm", "takeoff", "land"]
+    drag(palette("takepic"), step(0), "top")
+    assert order() == ["takepic", "arm", "takeoff", "land"]
+    # Reordered by dragging the steps themselves: down to the end, then up to the top.
+    drag(step(0), step(3), "bottom")
+    assert order() == ["arm", "takeoff", "land", "takepic"]
+    drag(step(2), step(0), "top")
+    assert order() == ["land", "arm", "takeoff", "takepic"]
+
+    # By keyboard: the ↓/↑ buttons, and the focus stays on the moved step.
+    page.focus("#step-list button[aria-label='Move step 1 down']")
+    for position in (2, 3, 4):
+        page.keyboard.press("Enter")
+        focused = page.evaluate("document.activeElement.getAttribute('aria-label')")
+        assert focused == f"Move step {position} down"
+    assert order() == ["arm", "takeoff", "takepic", "land"]
+    page.keyboard.press("Enter")  # already last: stays
+    assert order() == ["arm", "takeoff", "takepic", "land"]
+    page.keyboard.press("Shift+Tab")
+    page.keyboard.press("Enter")
+    assert order() == ["arm", "takeoff", "land", "takepic"]
+    assert page.evaluate("document.activeElement.getAttribute('aria-label')") == "Move step 3 up"
+    page.keyboard.press("Tab")  # to "Move step 3 down"
+    page.keyboard.press(" ")
+    assert order() == ["arm", "takeoff", "takepic", "land"]
+
+    # The mission sent for a preview is that list, in that order.
+    page.check(f"#plan-drone-{DRONE}")
+    answer = preview(page)
+    steps = answer.request.post_data_json["steps"]
+    assert [s["command"] for s in steps] == ["arm", "takeoff", "takepic", "land"]
+    assert steps[1]["value"] == 10  # the palette's take-off height came along
+    page.wait_for_selector(f"#estimate-table tbody th:text-is('{DRONE}')")
+    assert page.inner_text("#estimate-table tbody td >> nth=0") == "4"
+    console.assert_clean()
+
+
+def test_the_planner_shows_where_a_handover_happened(open_page, demo, screenshot):
+    here = get(demo, "/drones/QUAD_1")["position"]
+    steps: list[dict] = []
+    for k, (north, east) in enumerate([(20, 0), (20, 20), (0, 20), (0, 0)], start=1):
+        lat = here["lat"] + north / M_PER_DEG
+        lon = here["lon"] + east / (M_PER_DEG * math.cos(math.radians(here["lat"])))
+        steps += [
+            {"command": "navigate", "lat": lat, "lon": lon, "altitude_delta": 10},
+            {"command": "wait_for_flight"},
+        ]
+        if k == 2:  # the seed's virtual alarm: this drone must be replaced here
+            steps.append({"command": "virtualalarm", "level": "CRITICAL", "message": "smoke"})
+    page, console = open_page("planner")
+    spec = {
+        "name": "handover",
+        "drones": ["QUAD_1"],
+        "steps": steps,
+        "options": {"early_replacement": False, "collaboration": False},
+    }
+    status, answer = post_for(demo, "/missions?start=true", spec)
+    assert status == 201, answer
+    mission = json.loads(answer)["mission_id"]
+    page.focus("#plan-watch")  # the list of missions is read when it is opened
+    page.wait_for_selector(f"#plan-watch option[value='{mission}']", state="attached")
+    page.select_option("#plan-watch", mission)
+    done = f"#mission-status[data-mission='{mission}'][data-state='completed']"
+    page.wait_for_selector(done, timeout=120_000)
+    page.wait_for_selector("#mission-status[data-handovers='1']")
+    label = page.locator(".handover-label")
+    assert label.count() == 1
+    taker = re.fullmatch(r"handover: QUAD_1 → (QUAD_\d) \(on alarm\)", label.inner_text())
+    assert taker and taker.group(1) != "QUAD_1", label.inner_text()
+    assert "4/4 waypoints" in page.inner_text("#mission-status")
+    screenshot(page, "8-planner-handover")
+    console.assert_clean()
