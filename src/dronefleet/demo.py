@@ -124,7 +124,6 @@ async def _demo(args: argparse.Namespace) -> int:
             state_path=state_dir / "ground.db",
             http_host=host,
             http_port=port,
-            token=args.token,
         )
         await ground.start()
         try:

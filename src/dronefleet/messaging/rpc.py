@@ -42,12 +42,7 @@ class Requester:
                 self.client.subscribe(reply_pattern, self._on_reply, qos=QOS_COMMAND)
             )
             self._subscribed[reply_pattern] = ready
-        try:
-            await asyncio.shield(ready)
-        except Exception:
-            if self._subscribed.get(reply_pattern) is ready:
-                del self._subscribed[reply_pattern]  # the next request tries again
-            raise
+        await asyncio.shield(ready)
 
     async def _on_reply(self, topic_name: str, payload: bytes) -> None:
         try:

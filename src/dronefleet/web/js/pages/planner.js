@@ -1,6 +1,7 @@
 // Planner: draw an area (polygon or the seed's three clicks), preview it, send it, watch it fly.
 import { api } from "../api.js";
 import { colorFor, droneIcon, latLngOf, makeMap } from "../map.js";
+import { addMissionOptions } from "../missions.js";
 import { el, field, fmtDuration, toast } from "../ui.js";
 import { stepEditor } from "./planner-steps.js";
 
@@ -58,14 +59,8 @@ export async function mount(root, ctx) {
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
     estimate, field("Watch a mission", watch), status)));
 
-  async function fillWatch() {
-    try {
-      const have = new Set([...watch.options].map((o) => o.value));
-      for (const m of await api("/missions")) {
-        if (!have.has(m.mission_id)) watch.append(el("option", { value: m.mission_id }, `${m.mission_id} — ${m.name || ""}`));
-      }
-    } catch { /* the list stays as it was; the stream keeps the status */ }
-  }
+  // Read when opened; on an error the list stays as it was and the stream keeps the status.
+  const fillWatch = () => addMissionOptions(watch).catch(() => {});
   watch.addEventListener("focus", fillWatch);
   watch.addEventListener("change", () => {
     if (!watch.value) return;

@@ -1,6 +1,7 @@
 // Replay: a mission log (dropped file or a finished mission), each drone's path on a timeline.
 import { api } from "../api.js";
 import { colorFor, makeMap } from "../map.js";
+import { addMissionOptions } from "../missions.js";
 import { el, field, fmtDuration, toast } from "../ui.js";
 
 const L = window.L;
@@ -22,7 +23,7 @@ export async function mount(root, ctx) {
   let span = [0, 0];
 
   try {
-    for (const m of await api("/missions")) pick.append(el("option", { value: m.mission_id }, `${m.mission_id} — ${m.name || ""} (${m.state})`));
+    await addMissionOptions(pick);
   } catch (err) {
     toast(`missions: ${err.message}`, "error");
   }
