@@ -2,6 +2,8 @@
 const TOKEN_KEY = "dronefleet.token";
 // Raw telemetry is left out of the shared stream (it is the bulk of it); charts query it.
 const KINDS = "heartbeat,progress,alarm,fleet,mission";
+// A request that hangs becomes an error the page shows; longer than a command's own 30 s limit.
+const REQUEST_TIMEOUT_MS = 40000;
 
 export function getToken() {
   return localStorage.getItem(TOKEN_KEY);
@@ -29,7 +31,9 @@ export async function api(path, { method = "GET", body, query } = {}) {
   if (body !== undefined) headers["Content-Type"] = "application/json";
   let response;
   try {
-    response = await fetch(url, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+    response = await fetch(url, {
+      method, headers, body: body === undefined ? undefined : JSON.stringify(body), signal: AbortSignal.timeout(REQUEST_TIMEOUT_MS),
+    });
   } catch (err) {
     throw new ApiError(0, `the server does not answer (${err.message})`);
   }
