@@ -1,7 +1,12 @@
 """One clock for all waiting (DESIGN.md §4).
 
 Drone-side code takes its time from the vehicle it flies: a simulated vehicle's sim clock, or an
-autopilot's boot time. Ground code uses wall time. Both implement :class:`Clock`.
+autopilot's boot time. Ground code uses the event loop's time. Both implement :class:`Clock`.
+
+In a simulation run in one process the event loop's time is virtual
+(:mod:`dronefleet.virtual_loop`), so :func:`monotonic` and :func:`timestamp_s` — which every
+component uses instead of ``time.monotonic()`` and ``time.time()`` — follow vehicle seconds, and
+logs of a simulated run line up with its vehicles. On an ordinary loop they are the wall clock.
 """
 
 from __future__ import annotations
@@ -29,13 +34,32 @@ class Clock(Protocol):
         ...
 
 
+def monotonic() -> float:
+    """Seconds on the running event loop's clock (virtual in a simulation), else wall time."""
+    try:
+        return asyncio.get_running_loop().time()
+    except RuntimeError:
+        return time.monotonic()
+
+
+def timestamp_s() -> float:
+    """Seconds since the Unix epoch on the running loop's clock: every timestamp a component
+    writes (heartbeats, telemetry, progress, audit, logs) comes from here."""
+    try:
+        loop = asyncio.get_running_loop()
+    except RuntimeError:
+        return time.time()
+    epoch_time = getattr(loop, "epoch_time", None)
+    return epoch_time() if epoch_time is not None else time.time()
+
+
 class WallClock:
-    """Real time: monotonic seconds, asyncio sleeps."""
+    """The event loop's time (wall time on an ordinary loop, virtual in a simulation)."""
 
     speedup = 1.0
 
     def now(self) -> float:
-        return time.monotonic()
+        return monotonic()
 
     async def sleep(self, duration_s: float) -> None:
         await asyncio.sleep(max(0.0, duration_s))

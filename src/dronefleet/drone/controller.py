@@ -11,9 +11,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import time
 from typing import Any
 
+from dronefleet.clock import monotonic
 from dronefleet.drone.arming import ArmingSwitch
 from dronefleet.drone.camera_trigger import CameraTrigger
 from dronefleet.drone.config import DroneConfig
@@ -213,7 +213,7 @@ class DroneController:
         min_gap_s = 1.0 / self.config.telemetry_max_wall_hz
         last = 0.0
         async for sample in self.fc.telemetry():
-            now = time.monotonic()
+            now = monotonic()
             if now - last < min_gap_s:
                 continue
             last = now

@@ -15,12 +15,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import time
 from pathlib import Path
 from typing import Any, BinaryIO
 
 import orjson
 
+from dronefleet.clock import timestamp_s
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, BrokerClient
 
@@ -75,11 +75,11 @@ class DroneLogger:
 
     async def _on_message(self, topic_name: str, payload: bytes) -> None:
         if self._running:
-            self._write({"t": time.time(), "topic": topic_name, "payload": _parse(payload)})
+            self._write({"t": timestamp_s(), "topic": topic_name, "payload": _parse(payload)})
 
     def log_event(self, kind: str, **data: Any) -> None:
         """Record a local event, e.g. ``log_event("arm", requested_by="mission", ok=True)``."""
-        self._write({"t": time.time(), "event": kind, "data": data})
+        self._write({"t": timestamp_s(), "event": kind, "data": data})
 
     # -- file handling -----------------------------------------------------------------------
     def _write(self, record: dict[str, Any]) -> None:

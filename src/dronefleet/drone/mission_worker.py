@@ -16,6 +16,7 @@ import time
 from collections import OrderedDict, deque
 from typing import Any
 
+from dronefleet.clock import timestamp_s
 from dronefleet.drone import onboard
 from dronefleet.drone.controller import CommandError, DroneController
 from dronefleet.drone.fc.base import FcError
@@ -110,7 +111,7 @@ class MissionWorker:
                         result={"note": "no mission was running"},
                     )
                 return
-            mission_id = request.mission_id or f"m-{int(time.time() * 1000)}"
+            mission_id = request.mission_id or f"m-{int(timestamp_s() * 1000)}"
             await self._cancel_current(reason=f"replaced by mission {mission_id}")
             self.queue = deque(enumerate(steps, start=request.start_index))
             self.mission_id = mission_id

@@ -1,18 +1,30 @@
-"""``dronefleet experiment NAME [--speedup N] [--json] [--baseline seed] [--fc BACKEND]``:
-the seed's chapter 5, on in-process, MAVLink, UAVTalk or mixed flight controllers."""
+"""``dronefleet experiment NAME [--speedup N|max] [--json] [--baseline seed] [--fc BACKEND]``:
+the seed's chapter 5, on in-process, MAVLink, UAVTalk or mixed flight controllers.
+
+Every experiment runs in one process on virtual time (:mod:`dronefleet.virtual_loop`): its
+figures are vehicle seconds that do not depend on ``--speedup`` or on the machine's load.
+"""
 
 from __future__ import annotations
 
 import argparse
-import asyncio
 import json
+import logging
 import sys
+
+from dronefleet import virtual_loop
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("experiment", help="run one of the seed's four experiments (chapter 5)")
     p.add_argument("name", choices=["panic", "survey", "replacement", "collab"])
-    p.add_argument("--speedup", type=float, default=10.0, help="vehicle seconds per wall second")
+    p.add_argument(
+        "--speedup",
+        type=virtual_loop.speedup_arg,
+        default="max",
+        help="vehicle seconds per wall second at most, or 'max' (default): as fast as the CPU "
+        "allows; the figures are the same at any speed-up",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
         "--baseline",
@@ -41,9 +53,21 @@ def main(args: argparse.Namespace) -> int:
                 f"running {args.name} ({strategy}, fc {args.fc}) at {args.speedup:g}x ...",
                 file=sys.stderr,
             )
-        results.append(
-            asyncio.run(run(args.name, strategy=strategy, speedup=args.speedup, fc=args.fc))
-        )
+        try:
+            results.append(
+                virtual_loop.run(
+                    run(args.name, strategy=strategy, speedup=args.speedup, fc=args.fc),
+                    speedup=args.speedup,
+                )
+            )
+        except Exception as exc:  # one clear line (and a JSON object), never a traceback
+            logging.getLogger(__name__).debug("experiment failed", exc_info=True)
+            message = str(exc) or type(exc).__name__
+            if args.json:
+                print(json.dumps({"experiment": args.name, "strategy": strategy, "error": message}))
+            else:
+                print(f"dronefleet experiment: {message}", file=sys.stderr)
+            return 1
     if args.json:
         data = results[0].as_json()
         if len(results) > 1:

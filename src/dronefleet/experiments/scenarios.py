@@ -240,6 +240,10 @@ async def collab(h: Harness, strategy: str) -> Result:
     )
     record = await launch.create(h.planner, spec, start=True)
     record = await h.until_ended(record.mission_id)
+    if not record.expansions:
+        raise ExperimentFailed(
+            f"the OUT_MEASURE alarm did not grow the area (mission {record.state.value})"
+        )
     expansion = record.expansions[0]
     t_alarm = expansion["alarm_vehicle_s"]
     first = record.legs[0]
@@ -271,10 +275,29 @@ async def collab(h: Harness, strategy: str) -> Result:
 SCENARIOS = {"panic": panic, "survey": survey, "replacement": replacement, "collab": collab}
 
 
+class ExperimentFailed(RuntimeError):
+    """An experiment that did not finish, with the scenario's state in one line."""
+
+
+def _state(h: Harness) -> str:
+    missions = h.planner.missions.values() if h.planner is not None else []
+    parts = [
+        f"{m.mission_id} {m.state.value} {len(m.done)}/{len(m.required_indices())} steps"
+        for m in missions
+    ]
+    return f"at vehicle t={h.clock.now():.1f} s; missions: {', '.join(parts) or 'none'}"
+
+
 async def run(
     name: str, *, strategy: str = "ours", speedup: float = 10.0, fc: str = "sim"
 ) -> Result:
     """Run experiment ``name``; ``fc`` picks the flight-controller backend of every drone
-    (sim, mavlink, uavtalk, or mixed — see :mod:`dronefleet.experiments.fleets`)."""
+    (sim, mavlink, uavtalk, or mixed — see :mod:`dronefleet.experiments.fleets`).
+
+    Raises :class:`ExperimentFailed` with the scenario's state when the run does not finish."""
     async with Harness(speedup=speedup, fc=fc) as h:
-        return await SCENARIOS[name](h, strategy)
+        try:
+            return await SCENARIOS[name](h, strategy)
+        except Exception as exc:
+            what = str(exc) or type(exc).__name__
+            raise ExperimentFailed(f"{name} ({strategy}) failed: {what} ({_state(h)})") from exc

@@ -8,12 +8,12 @@ heartbeats' arrival (a drone simulated 10x faster than real time sends its 5 s h
 
 from __future__ import annotations
 
-import time
 from enum import StrEnum
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from dronefleet.clock import timestamp_s
 from dronefleet.messaging.status import Heartbeat
 
 LOST_AFTER_INTERVALS = 3
@@ -89,7 +89,7 @@ class DroneRecord(BaseModel):
         )
 
     def seen_ago_s(self, now: float | None = None) -> float:
-        return (time.time() if now is None else now) - self.last_seen
+        return (timestamp_s() if now is None else now) - self.last_seen
 
     def public(self) -> dict[str, Any]:
         """The JSON shape every API answer uses (seed Fig. 4.21, plus liveness)."""

@@ -14,9 +14,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import time
 from typing import Any
 
+from dronefleet.clock import timestamp_s
 from dronefleet.ground.fleet import DroneRecord, DroneStatus, LenientHeartbeat
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
@@ -53,7 +53,7 @@ class DroneIdentifier:
         self._gear_tasks: set[asyncio.Task[None]] = set()
 
     async def start(self) -> DroneIdentifier:
-        started = time.time()
+        started = timestamp_s()
         for data in await self.state.load_drones():
             with contextlib.suppress(ValueError):
                 record = DroneRecord.model_validate(data)
@@ -92,7 +92,7 @@ class DroneIdentifier:
         if not topic_name.startswith(f"{hb.drone_id}/"):
             log.warning("dropping heartbeat of %s sent on %s", hb.drone_id, topic_name)
             return
-        now = time.time()
+        now = timestamp_s()
         record = self.fleet.get(hb.drone_id)
         if record is None:
             record = self.fleet[hb.drone_id] = DroneRecord.first(hb, now)
@@ -108,7 +108,7 @@ class DroneIdentifier:
     async def _watch_liveness(self) -> None:
         while True:
             await asyncio.sleep(0.05)
-            now = time.time()
+            now = timestamp_s()
             for record in list(self.fleet.values()):
                 if record.status is DroneStatus.ONLINE and now > record.deadline():
                     record.status = DroneStatus.LOST
@@ -155,7 +155,7 @@ class DroneIdentifier:
             value = reply.get(query.value)
             if isinstance(value, dict):
                 setattr(record, query.value, value)
-                record.gear_updated = time.time()
+                record.gear_updated = timestamp_s()
                 self._dirty.add(drone_id)
 
     # -- queries from ground components --------------------------------------------------------
@@ -187,7 +187,7 @@ class DroneIdentifier:
     async def _persist_loop(self) -> None:
         while True:
             await asyncio.sleep(1.0)
-            now = time.time()
+            now = timestamp_s()
             due = [
                 d for d in self._dirty if now - self._persisted_at.get(d, 0.0) >= PERSIST_EVERY_S
             ]
@@ -204,7 +204,7 @@ class DroneIdentifier:
         except Exception:  # a full disk must not stop the fleet from being tracked
             log.exception("could not save %d drone records", len(records))
             return
-        now = time.time()
+        now = timestamp_s()
         for d in ids:
             self._dirty.discard(d)
             self._persisted_at[d] = now

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import asyncio
 import sqlite3
-import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, TypeVar
 
 import orjson
+
+from dronefleet.clock import timestamp_s
 
 T = TypeVar("T")
 
@@ -88,7 +89,7 @@ class StateStore:
 
     # -- drones --------------------------------------------------------------------------------
     async def save_drones(self, records: list[dict[str, Any]]) -> None:
-        now = time.time()
+        now = timestamp_s()
         rows = [(r["drone_id"], orjson.dumps(r).decode(), now) for r in records]
 
         def write(db: sqlite3.Connection) -> None:
@@ -117,7 +118,7 @@ class StateStore:
                 )
                 db.execute(
                     "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?)",
-                    (token_hash, name, role, time.time()),
+                    (token_hash, name, role, timestamp_s()),
                 )
 
         await self.run(write)
@@ -158,7 +159,7 @@ class StateStore:
         answer: Any,
     ) -> None:
         row = (
-            time.time(),
+            timestamp_s(),
             who,
             role,
             drone_id,

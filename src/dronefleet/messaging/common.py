@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import secrets
-import time
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
+from dronefleet.clock import timestamp_s
 from dronefleet.messaging.codec import MessageError
 
 
@@ -17,8 +17,9 @@ def new_request_id() -> str:
 
 
 def wall_time() -> float:
-    """Unix time in seconds; every message carries it beside the vehicle time."""
-    return time.time()
+    """Unix time in seconds on the running loop's clock (virtual in a simulation); every message
+    carries it beside the vehicle time."""
+    return timestamp_s()
 
 
 class Message(BaseModel):

@@ -21,6 +21,7 @@ from dronefleet.sim.clock import SimClock
 from dronefleet.sim.gasfield import GasField
 from dronefleet.sim.vehicle import SimVehicle
 from dronefleet.sim.wind import CALM, Wind
+from dronefleet.virtual_loop import VirtualTimeLoop
 
 if TYPE_CHECKING:
     from dronefleet.drone.fc.sim import SimFlightController
@@ -33,6 +34,8 @@ _MIN_WALL_SLEEP_S = 0.002
 _MAX_BATCH_WALL_S = 0.02
 #: Falling further behind than this (wall seconds of sim time) forgives the debt: no long bursts.
 _MAX_LAG_WALL_S = 0.25
+#: Float slack when counting due ticks (0.05 * 6 != 0.3 exactly).
+_DUE_EPS = 1e-6
 
 
 class SimWorld:
@@ -111,6 +114,8 @@ class SimWorld:
     async def start(self) -> None:
         if self.running:
             return
+        if isinstance(asyncio.get_running_loop(), VirtualTimeLoop):
+            self.clock.speedup = 1.0  # the loop's time is vehicle time; the loop does the pacing
         self._rebase = True
         self._task = asyncio.create_task(self._run(), name="sim-world")
 
@@ -130,33 +135,43 @@ class SimWorld:
         await self.stop()
 
     async def _run(self) -> None:
+        # Paced against the event loop's clock: the wall clock on an ordinary loop, virtual time
+        # on a :class:`~dronefleet.virtual_loop.VirtualTimeLoop` (where the world runs at
+        # speedup 1 and each tick is a timer of its own, so ticks land on exact virtual times).
+        loop = asyncio.get_running_loop()
         clock, step = self.clock, self.step_s
-        wall_ref = sim_ref = 0.0
+        loop_ref = sim_ref = 0.0
         try:
             while True:
                 if self._rebase:
-                    wall_ref, sim_ref, self._rebase = time.monotonic(), clock.now(), False
-                wall_now = time.monotonic()
+                    loop_ref, sim_ref, self._rebase = loop.time(), clock.now(), False
                 speedup = clock.speedup
                 if math.isinf(speedup):
                     due = math.inf
                 else:
-                    due = (sim_ref + (wall_now - wall_ref) * speedup - clock.now()) / step
-                    if due > _MAX_LAG_WALL_S * speedup / step:
+                    behind_s = (loop.time() - loop_ref) * speedup - (clock.now() - sim_ref)
+                    due = behind_s / step + _DUE_EPS
+                    if behind_s > _MAX_LAG_WALL_S * speedup:
                         self._rebase = True  # hopelessly behind: run flat out from here
                 if due < 1.0:
-                    wait_s = (1.0 - due) * step / speedup
-                    await asyncio.sleep(max(wait_s, _MIN_WALL_SLEEP_S))
+                    wait_s = (1.0 - due + _DUE_EPS) * step / speedup
+                    await asyncio.sleep(max(wait_s, self._min_sleep_s(loop)))
                     continue
-                self._run_batch(due, wall_now)
+                self._run_batch(due)
                 await asyncio.sleep(0)
         except Exception:
             log.exception("sim world loop crashed at t=%.2f s", clock.now())
             raise
 
-    def _run_batch(self, due: float, wall_start: float) -> None:
+    @staticmethod
+    def _min_sleep_s(loop: asyncio.AbstractEventLoop) -> float:
+        # A finer wall sleep only burns CPU on timer overhead; a virtual one costs nothing.
+        return 0.0 if hasattr(loop, "epoch_time") else _MIN_WALL_SLEEP_S
+
+    def _run_batch(self, due: float) -> None:
+        wall_start = time.monotonic()  # a wall budget: yield to other tasks now and then
         ran = 0
-        while ran < due:
+        while ran + 1 <= due:
             ran += 1
             if self.tick():
                 return  # let the woken coroutines run at their time

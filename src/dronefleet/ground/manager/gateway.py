@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import logging
 import secrets
-import time
 from typing import Any
 
+from dronefleet.clock import timestamp_s
 from dronefleet.ground.identifier import QUERY_TOPIC, identifier_query
 from dronefleet.ground.manager.auth import Principal
 from dronefleet.ground.manager.errors import ApiError
@@ -74,7 +74,7 @@ class DroneGateway:
     async def online_drone(self, drone_id: str) -> dict[str, Any]:
         record = await self.drone(drone_id)
         if record.get("status") == "lost":
-            ago = time.time() - float(record.get("last_seen") or 0)
+            ago = timestamp_s() - float(record.get("last_seen") or 0)
             raise ApiError(
                 409,
                 f"drone {drone_id} is not connected (last heartbeat {ago:.0f} s ago)",

@@ -6,12 +6,12 @@ SQLite and InfluxDB give the same answer (see :mod:`dronefleet.ground.telemetry.
 """
 
 import re
-import time
 from datetime import datetime
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Request
 
+from dronefleet.clock import timestamp_s
 from dronefleet.ground.manager.context import Viewer, ctx_of
 from dronefleet.ground.manager.errors import ApiError
 from dronefleet.ground.telemetry.store import FIELD_RE, MAX_BUCKETS, StoreError, TelemetryQuery
@@ -68,7 +68,7 @@ async def get_telemetry(
     bad = [f for f in names if not FIELD_RE.match(f)]
     if bad:
         raise ApiError(422, f"fields: invalid field name(s) {', '.join(map(repr, bad))}")
-    to_us = parse_time_us("to", to) if to else int(time.time() * 1e6)
+    to_us = parse_time_us("to", to) if to else int(timestamp_s() * 1e6)
     from_us = parse_time_us("from", from_) if from_ else to_us - 3_600_000_000
     every_us = parse_duration_us(every)
     if from_us >= to_us:

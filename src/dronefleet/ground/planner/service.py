@@ -12,10 +12,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import time
 from collections.abc import Callable
 from typing import Any
 
+from dronefleet.clock import timestamp_s
 from dronefleet.ground.planner.fleet_view import FleetView
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
@@ -244,7 +244,7 @@ class MissionPlanner:
             leg.state = LegState.RUNNING
             leg.started_vehicle_s = msg.get("vehicle_time_s")
             if record.started_at is None:
-                record.started_at = time.time()
+                record.started_at = timestamp_s()
         elif event == "step":
             drone_step = int(msg.get("step_index", -1))
             index = leg.global_index(drone_step)
@@ -291,7 +291,7 @@ class MissionPlanner:
         self, record: MissionRecord, state: MissionState, error: str | None = None
     ) -> None:
         record.state = state
-        record.ended_at = time.time()
+        record.ended_at = timestamp_s()
         record.error = error
         await self.save(record)
         await self.store.save_log(record.mission_id, build_log(record))

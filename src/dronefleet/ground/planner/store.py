@@ -7,11 +7,11 @@ the records are reloaded and tracking carries on.
 from __future__ import annotations
 
 import sqlite3
-import time
 from typing import Any
 
 import orjson
 
+from dronefleet.clock import timestamp_s
 from dronefleet.ground.planner.models import MissionRecord
 from dronefleet.ground.state import StateStore
 
@@ -46,7 +46,7 @@ class MissionStore:
                 "INSERT INTO missions (mission_id, state, record, updated_at) VALUES (?, ?, ?, ?) "
                 "ON CONFLICT(mission_id) DO UPDATE SET state=excluded.state, "
                 "record=excluded.record, updated_at=excluded.updated_at",
-                (record.mission_id, record.state.value, blob, time.time()),
+                (record.mission_id, record.state.value, blob, timestamp_s()),
             )
             db.commit()
 
@@ -65,7 +65,7 @@ class MissionStore:
             db.execute(
                 "INSERT OR REPLACE INTO mission_logs (mission_id, log, written_at) "
                 "VALUES (?, ?, ?)",
-                (mission_id, blob, time.time()),
+                (mission_id, blob, timestamp_s()),
             )
             db.commit()
 

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import time
 from typing import Any
 
+from dronefleet.clock import monotonic
 from dronefleet.drone.fc.mavlink.codec import Encoder, FrameDecoder, Message, text_field
 from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.sim.gasfield import GasSensor
@@ -82,7 +82,7 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
 
     # -- receiving ----------------------------------------------------------------------------
     def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
-        self.peers[addr] = time.monotonic()
+        self.peers[addr] = monotonic()
         if self.copter.vehicle.rebooting:
             return
         for msg in self._decoder.feed_datagram(data):
@@ -156,7 +156,7 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         if self._transport is None or not self.peers:
             return
         data = self._encoder.pack(msg)
-        now = time.monotonic()
+        now = monotonic()
         for addr, seen in list(self.peers.items()):
             if now - seen > self.peer_timeout_s:
                 del self.peers[addr]

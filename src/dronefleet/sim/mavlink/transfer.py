@@ -9,10 +9,10 @@ MISSION_ITEM_INT per request. Also MISSION_CLEAR_ALL and MISSION_SET_CURRENT.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from dronefleet.clock import monotonic
 from dronefleet.drone.fc.mavlink.codec import Message
 from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.drone.fc.mavlink.items import MISSION, MissionItem
@@ -93,13 +93,13 @@ class MissionTransfer:
         self._ack(msg, mav.MAV_MISSION_ACCEPTED)
 
     def _ask(self, seq: int) -> None:
-        self._asked_at = time.monotonic()
+        self._asked_at = monotonic()
         system, component = self._peer
         self.send(mav.MAVLink_mission_request_int_message(system, component, seq, MISSION))
 
     def tick(self) -> None:
         """Re-ask for a late item; give up after a few tries."""
-        if self._incoming is None or time.monotonic() - self._asked_at < _RETRY_WALL_S:
+        if self._incoming is None or monotonic() - self._asked_at < _RETRY_WALL_S:
             return
         self._retries += 1
         if self._retries > _MAX_RETRIES:

@@ -11,9 +11,8 @@ clock adds the time before the reboot so that its ``now()`` never runs backwards
 from __future__ import annotations
 
 import collections
-import time
 
-from dronefleet.clock import sleep_on_estimate
+from dronefleet.clock import monotonic, sleep_on_estimate
 
 #: Wall seconds of stamps kept for the rate estimate.
 _WINDOW_WALL_S = 3.0
@@ -33,7 +32,7 @@ class AutopilotClock:
     def __init__(self) -> None:
         self._offset_s = 0.0  # boot time accumulated over earlier boots
         self._last_boot_s: float | None = None
-        self._last_wall = time.monotonic()
+        self._last_wall = monotonic()
         self._base_s = 0.0  # clock time at _last_wall
         self._rate = 1.0
         self._samples: collections.deque[tuple[float, float]] = collections.deque()
@@ -52,7 +51,7 @@ class AutopilotClock:
 
     def observe(self, time_boot_ms: int, wall: float | None = None) -> None:
         """Take a ``time_boot_ms`` stamp from a message received at ``wall`` (monotonic)."""
-        wall = time.monotonic() if wall is None else wall
+        wall = monotonic() if wall is None else wall
         boot_s = time_boot_ms / 1000.0
         jump = _EXPECTED_JUMP_S if self._expect_reboot else _REBOOT_JUMP_S
         if self._last_boot_s is not None and boot_s < self._last_boot_s - jump:
@@ -78,7 +77,7 @@ class AutopilotClock:
         self._expect_reboot = True
 
     def now(self) -> float:
-        t = self._base_s + (time.monotonic() - self._last_wall) * self._rate
+        t = self._base_s + (monotonic() - self._last_wall) * self._rate
         # Stamps arrive with jitter: never report time running backwards.
         self._reported = max(self._reported, t)
         return self._reported

@@ -10,8 +10,8 @@ Drone Controller can pass it to the operator as the seed's controller did with d
 from __future__ import annotations
 
 import asyncio
-import time
 
+from dronefleet.clock import monotonic
 from dronefleet.drone.fc.base import FcError
 from dronefleet.drone.fc.mavlink.codec import Message, command_name, result_name
 from dronefleet.drone.fc.mavlink.codec import dialect as mav
@@ -70,7 +70,7 @@ class CommandSender:
         name = label or command_name(command)
         lock = self._lock.setdefault(command, asyncio.Lock())
         async with lock:  # one outstanding command of a kind: acks carry no request id
-            sent_at = time.monotonic()
+            sent_at = monotonic()
             for attempt in range(self.retries + 1):
                 try:
                     self.link.send(build(attempt))

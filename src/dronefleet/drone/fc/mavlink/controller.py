@@ -16,9 +16,9 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
-import time
 from typing import Any
 
+from dronefleet.clock import monotonic
 from dronefleet.drone.fc.base import FcError, FlightMode
 from dronefleet.drone.fc.mavlink import objects, session
 from dronefleet.drone.fc.mavlink.clock import AutopilotClock
@@ -201,7 +201,7 @@ class MavlinkFlightController(VehicleView):
         if self.autopilot is not Autopilot.PX4:
             await self.set_mode(FlightMode.GUIDED)
         self._arming = True
-        asked_at = time.monotonic()
+        asked_at = monotonic()
         try:
             await self.commands.long(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 0, label="arm")
             if not await self._until(lambda: self.state().armed, timeout_s=15.0):
@@ -282,7 +282,7 @@ class MavlinkFlightController(VehicleView):
             lat, lon, relative_alt_m, 0, 0, 0, 0, 0, 0, 0, 0,
         )  # fmt: skip
         for _ in range(3):  # no ACK for targets: ArduPilot echoes POSITION_TARGET_GLOBAL_INT
-            sent_at = time.monotonic()
+            sent_at = monotonic()
             try:
                 self.link.send(message)
             except LinkLost as exc:

@@ -15,12 +15,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import time
 from collections.abc import Callable
 from typing import Any
 
 from pymavlink import mavutil
 
+from dronefleet.clock import monotonic
 from dronefleet.drone.fc.mavlink.codec import Message, text_field
 from dronefleet.drone.fc.mavlink.codec import dialect as mav
 
@@ -169,11 +169,11 @@ class MavlinkLink:
                 self.target_system = src
                 self.target_component = msg.get_srcComponent()
             if src == self.target_system:
-                self.last_heartbeat_wall = time.monotonic()
+                self.last_heartbeat_wall = monotonic()
                 self._set_link(True)
         if src != self.target_system:
             return
-        now = time.monotonic()
+        now = monotonic()
         self.latest[kind] = msg
         self.received_wall[kind] = now
         if kind == "STATUSTEXT":
@@ -261,7 +261,7 @@ class MavlinkLink:
     def heartbeat_age_s(self) -> float | None:
         if self.last_heartbeat_wall is None:
             return None
-        return time.monotonic() - self.last_heartbeat_wall
+        return monotonic() - self.last_heartbeat_wall
 
     def describe(self) -> str:
         age = self.heartbeat_age_s()
@@ -291,11 +291,11 @@ class MavlinkLink:
             if self.link_ok:
                 lost_since = None
                 continue
-            lost_since = lost_since or time.monotonic()
+            lost_since = lost_since or monotonic()
             stream = not self.url.startswith(("udp", "mcast"))
-            if (self._conn is None or stream) and time.monotonic() - lost_since > 2.0:
+            if (self._conn is None or stream) and monotonic() - lost_since > 2.0:
                 await self._reopen()
-                lost_since = time.monotonic()
+                lost_since = monotonic()
 
     async def _reopen(self) -> None:
         """Reopen a TCP/serial connection (UDP needs none: the autopilot just talks again)."""

@@ -10,10 +10,9 @@ autopilot's time does (a reboot), the clock holds until the new time catches up.
 
 from __future__ import annotations
 
-import time
 from collections import deque
 
-from dronefleet.clock import sleep_on_estimate
+from dronefleet.clock import monotonic, sleep_on_estimate
 
 #: Wall seconds of samples the rate estimate looks back over.
 _RATE_WINDOW_WALL_S = 2.0
@@ -32,7 +31,7 @@ class LinkClock:
 
     def observe(self, vehicle_s: float) -> None:
         """Feed one vehicle timestamp (seconds since the autopilot booted)."""
-        wall = time.monotonic()
+        wall = monotonic()
         if self._samples and vehicle_s + self._offset < self._samples[-1][1] - 1.0:
             self._offset = self._samples[-1][1] - vehicle_s  # rebooted: continue from here
             self._samples.clear()
@@ -52,7 +51,7 @@ class LinkClock:
         if not self._samples:
             return self._floor
         wall, vehicle = self._samples[-1]
-        estimate = vehicle + (time.monotonic() - wall) * self._rate
+        estimate = vehicle + (monotonic() - wall) * self._rate
         self._floor = max(self._floor, estimate)
         return self._floor
 

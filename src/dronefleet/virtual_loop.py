@@ -1,0 +1,207 @@
+"""Virtual time for a whole simulated system in one process (docs/DESIGN.md §4, issue 9).
+
+A :class:`VirtualTimeLoop` is an asyncio event loop whose ``time()`` is virtual: it stands still
+while any task is ready to run, any socket has data waiting or any executor job is still working,
+and jumps to the next timer only when everything is waiting. Every ``asyncio.sleep``,
+``asyncio.timeout``, ``call_later``, broker keep-alive, heartbeat interval and physics step
+follows it, so work, broker hops and I/O take zero vehicle seconds and a scenario gives the same
+figures whatever the machine's load.
+
+``speedup`` paces virtual time against the wall clock (N virtual seconds per wall second at most);
+the loop never runs ahead of the software: when the process is busy, virtual time waits for it.
+``speedup=math.inf`` (``--speedup max``) runs as fast as the CPU allows.
+
+Why our own loop and not ``looptime`` (PyPI): looptime fakes and compacts loop time for tests (a
+pytest plugin patching loops), but it has no pacing against the wall clock at a finite speed-up —
+which the demo needs so a person can watch the drones fly — and it advances time by configured
+idle steps while executor jobs run, where we must stand still until they finish. What we need is
+one selector wrapper and one ``time()`` override (below); the rest is asyncio's own loop.
+
+Only in-process parts may run on it: a separate process (a real Mosquitto, ArduPilot SITL, a
+browser) keeps real time, and at ``speedup=inf`` its answers would arrive "late" in virtual time.
+At a finite speed-up their I/O arrives while the loop paces, at the virtual time that matches the
+wall clock, which is what the demo needs for its browser and REST clients.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+import selectors
+import time
+from collections.abc import Awaitable, Callable, Coroutine
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+#: Falling further behind the paced schedule than this (wall seconds) forgives the debt, so a
+#: stall is followed by a paced run, not by a burst that tries to catch up.
+MAX_LAG_WALL_S = 0.25
+#: While an executor job works, the loop re-checks at this wall interval (virtual time stands).
+_BUSY_POLL_WALL_S = 0.05
+
+
+class _PacedSelector(selectors.BaseSelector):
+    """The real selector, asked first without waiting; when nothing is ready, time moves."""
+
+    def __init__(self, loop: VirtualTimeLoop) -> None:
+        self._real = selectors.DefaultSelector()
+        self._loop = loop
+
+    # -- the part that makes time virtual -------------------------------------------------------
+    def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
+        events = self._real.select(0)
+        if events or timeout == 0:
+            return events
+        loop = self._loop
+        if loop.busy_jobs:
+            # A thread is working for the loop: its result takes zero virtual time.
+            wait = _BUSY_POLL_WALL_S if timeout is None else min(timeout, _BUSY_POLL_WALL_S)
+            return self._real.select(wait)
+        if timeout is None:
+            return self._real.select(None)  # no timer at all: only outside I/O can wake us
+        return loop.advance_paced(timeout, self._real)
+
+    # -- delegation -------------------------------------------------------------------------------
+    def register(self, fileobj: Any, events: int, data: Any = None) -> selectors.SelectorKey:
+        return self._real.register(fileobj, events, data)
+
+    def unregister(self, fileobj: Any) -> selectors.SelectorKey:
+        return self._real.unregister(fileobj)
+
+    def modify(self, fileobj: Any, events: int, data: Any = None) -> selectors.SelectorKey:
+        return self._real.modify(fileobj, events, data)
+
+    def close(self) -> None:
+        self._real.close()
+
+    def get_key(self, fileobj: Any) -> selectors.SelectorKey:
+        return self._real.get_key(fileobj)
+
+    def get_map(self) -> Any:
+        return self._real.get_map()
+
+
+class VirtualTimeLoop(asyncio.SelectorEventLoop):
+    """An event loop on virtual time, paced at ``speedup`` virtual seconds per wall second."""
+
+    def __init__(self, speedup: float = math.inf) -> None:
+        if not speedup > 0:
+            raise ValueError(f"speedup must be positive, got {speedup}")
+        self._virtual_s = time.monotonic()
+        self._epoch_offset_s = time.time() - self._virtual_s
+        self._speedup = float(speedup)
+        self._anchor_virtual_s = self._virtual_s
+        self._anchor_wall_s = time.monotonic()
+        self.busy_jobs = 0
+        _follow_loop_time_in_paho()
+        super().__init__(_PacedSelector(self))
+
+    # -- time -------------------------------------------------------------------------------------
+    def time(self) -> float:
+        return self._virtual_s
+
+    def epoch_time(self) -> float:
+        """Seconds since the Unix epoch on this loop's clock (for timestamps)."""
+        return self._epoch_offset_s + self._virtual_s
+
+    @property
+    def speedup(self) -> float:
+        return self._speedup
+
+    @speedup.setter
+    def speedup(self, value: float) -> None:
+        if not value > 0:
+            raise ValueError(f"speedup must be positive, got {value}")
+        self._speedup = float(value)
+        self._rebase()
+
+    def _rebase(self) -> None:
+        self._anchor_virtual_s, self._anchor_wall_s = self._virtual_s, time.monotonic()
+
+    def advance_paced(
+        self, timeout_s: float, real: selectors.BaseSelector
+    ) -> list[tuple[selectors.SelectorKey, int]]:
+        """Everything waits: move virtual time by ``timeout_s``, pacing it against the wall.
+
+        Outside I/O that arrives while pacing is served at the virtual time matching the wall
+        clock at that moment (never later than the timer that was due)."""
+        target = self._virtual_s + timeout_s
+        if math.isinf(self._speedup):
+            self._virtual_s = target
+            return []
+        due_wall = self._anchor_wall_s + (target - self._anchor_virtual_s) / self._speedup
+        now_wall = time.monotonic()
+        if now_wall - due_wall > MAX_LAG_WALL_S:
+            self._rebase()  # hopelessly behind (a stall): pace from here, no burst
+            due_wall = now_wall
+        events = real.select(due_wall - now_wall) if due_wall > now_wall else []
+        if events:
+            paced = self._anchor_virtual_s + (time.monotonic() - self._anchor_wall_s) * (
+                self._speedup
+            )
+            self._virtual_s = max(self._virtual_s, min(target, paced))
+        else:
+            self._virtual_s = target
+        return events
+
+    # -- executor jobs hold time still ----------------------------------------------------------
+    def run_in_executor(self, executor: Any, func: Callable[..., T], *args: Any) -> Any:
+        future = super().run_in_executor(executor, func, *args)
+        self.busy_jobs += 1
+        future.add_done_callback(self._job_done)
+        return future
+
+    def _job_done(self, _: asyncio.Future[Any]) -> None:
+        self.busy_jobs -= 1
+
+
+def _paho_time() -> float:
+    """paho's keep-alive clock: the running loop's time (virtual on a virtual loop)."""
+    try:
+        return asyncio.get_running_loop().time()
+    except RuntimeError:
+        return time.monotonic()
+
+
+def _follow_loop_time_in_paho() -> None:
+    # paho-mqtt times keep-alive pings with a module-level ``time_func`` (time.monotonic). On a
+    # virtual loop the broker (amqtt, on loop time) would otherwise see a silent client for many
+    # virtual keep-alive periods and drop it. On an ordinary loop both clocks are the same.
+    import paho.mqtt.client as paho_client
+
+    paho_client.time_func = _paho_time
+
+
+def run(
+    main: Coroutine[Any, Any, T] | Callable[[], Awaitable[T]],
+    *,
+    speedup: float = math.inf,
+    debug: bool | None = None,
+) -> T:
+    """``asyncio.run`` on a :class:`VirtualTimeLoop`: the entry point of in-process simulations."""
+    with asyncio.Runner(debug=debug, loop_factory=lambda: VirtualTimeLoop(speedup)) as runner:
+        coro = main if asyncio.iscoroutine(main) else main()  # type: ignore[operator]
+        return runner.run(coro)
+
+
+def parse_speedup(text: str) -> float:
+    """``--speedup`` values: a positive number, or ``max`` for as fast as the CPU allows."""
+    if text.strip().lower() in ("max", "inf"):
+        return math.inf
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"--speedup takes a positive number or 'max', not {text!r}") from None
+    if not value > 0 or math.isnan(value):
+        raise ValueError(f"--speedup must be positive or 'max', not {text!r}")
+    return value
+
+
+def speedup_arg(text: str) -> float:
+    """argparse type for ``--speedup``."""
+    try:
+        return parse_speedup(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
