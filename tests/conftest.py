@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import sys
 from pathlib import Path
 
@@ -15,7 +16,17 @@ settings.load_profile("dronefleet")
 sys.path.insert(0, str(Path(__file__).parent))
 
 from dronefleet.messaging.embedded import EmbeddedBroker  # noqa: E402
+from dronefleet.virtual_loop import VirtualTimeLoop  # noqa: E402
 from support.brokers import mosquitto  # noqa: E402
+
+
+def pytest_asyncio_loop_factories(config, item):
+    """Tests marked ``virtual_time`` run on virtual time at ``--speedup max`` (issue 9): every
+    part they start lives in this process, so vehicle seconds cost only the CPU they need.
+    Tests that talk to other processes (Mosquitto, ``dronefleet drone``, SITL) keep real time."""
+    if item.get_closest_marker("virtual_time"):
+        return {"virtual": VirtualTimeLoop}
+    return {"wall": asyncio.new_event_loop}
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from dronefleet.experiments import scenarios
 from dronefleet.experiments.harness import Harness
 from dronefleet.ground.planner.units import units
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
 SPEEDUP = 10.0
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from dronefleet.experiments.scenarios import run
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
 
 
 @pytest.mark.parametrize("name", ["panic", "survey", "replacement", "collab"])

@@ -15,7 +15,7 @@ from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec
 from dronefleet.ground.planner.launch import MissionOptions, MissionSpec
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
 
 DRONES = [f"QUAD_{i}" for i in range(1, 7)]
 

@@ -1,0 +1,136 @@
+"""How many simulated drones one process carries on virtual time (issue 9).
+
+For 10, 100 and 1000 drones — each a whole drone side (Drone Controller with its broker
+connections, heartbeats every 5 vehicle s, telemetry at 5 Hz) on its own simulated vehicle — plus
+the ground's Drone Identifier and Telemetry Analyzer, all on the embedded broker in one
+:class:`~dronefleet.virtual_loop.VirtualTimeLoop` at ``--speedup max``, this prints:
+
+- vehicle seconds per wall second once every drone is up (≥ 1 means real time is possible);
+- heartbeats missed: expected from each drone's interval minus those the ground received;
+- telemetry messages (flight at 5 Hz, sensor readings at 2 Hz) delivered to the ground per wall
+  second;
+- drones marked lost by the Drone Identifier (must be 0);
+- the process's resident memory.
+
+    .venv/bin/python bench/sim_scale.py [--drones 10 100 1000] [--vehicle-s 20] [--profile]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import cProfile
+import pstats
+import tempfile
+import time
+from pathlib import Path
+
+from dronefleet import virtual_loop
+from dronefleet.drone.config import DroneConfig
+from dronefleet.drone.simulated import SimFleet, homes_around
+from dronefleet.geo.types import LLA
+from dronefleet.ground.identifier import EVENTS_TOPIC
+from dronefleet.ground.services import GroundServices
+from dronefleet.messaging.client import BrokerClient
+from dronefleet.messaging.codec import decode_object
+from dronefleet.messaging.embedded import EmbeddedBroker
+
+HOME = LLA(40.63, -8.659, 10.0)
+HEARTBEAT_S = 5.0
+
+
+def rss_mb() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+async def measure(count: int, vehicle_s: float) -> dict[str, float]:
+    loop = asyncio.get_running_loop()
+    counts = {"heartbeats": 0, "telemetry": 0}
+
+    async def count_heartbeat(_topic: str, _payload: bytes) -> None:
+        counts["heartbeats"] += 1
+
+    async def count_telemetry(_topic: str, _payload: bytes) -> None:
+        counts["telemetry"] += 1
+
+    with tempfile.TemporaryDirectory(prefix="dronefleet-scale-") as tmp:
+        async with EmbeddedBroker() as broker:
+            ground = GroundServices(
+                broker.url,
+                store_url=f"sqlite:///{Path(tmp) / 'telemetry.db'}",
+                state_path=Path(tmp) / "ground.db",
+                serve_http=False,
+            )
+            await ground.start()
+            lost: list[str] = []
+
+            async def count_lost(_topic: str, payload: bytes) -> None:
+                event = decode_object(payload)
+                if event.get("event") == "lost":
+                    lost.append(str(event.get("drone_id")))
+
+            try:
+                async with BrokerClient(broker.url, "bench-counter") as counter:
+                    await counter.subscribe("+/heartbeats/out", count_heartbeat)
+                    await counter.subscribe("+/telemetry/out", count_telemetry)
+                    await counter.subscribe(EVENTS_TOPIC, count_lost)
+                    async with SimFleet() as fleet:
+                        wall0 = time.perf_counter()
+                        ids = [f"QUAD_{i + 1}" for i in range(count)]
+                        for drone_id, spot in zip(ids, homes_around(HOME, count), strict=True):
+                            config = DroneConfig(drone_id, heartbeat_interval_s=HEARTBEAT_S)
+                            await fleet.add_drone(config, broker.url, home=spot)
+                        startup_wall_s = time.perf_counter() - wall0
+                        counts["heartbeats"] = counts["telemetry"] = 0
+                        t0, wall0 = loop.time(), time.perf_counter()
+                        await asyncio.sleep(vehicle_s)
+                        wall_s = time.perf_counter() - wall0
+                        elapsed_s = loop.time() - t0
+                        heartbeats, telemetry = counts["heartbeats"], counts["telemetry"]
+            finally:
+                await ground.stop()
+    expected = count * int(elapsed_s // HEARTBEAT_S)
+    return {
+        "drones": count,
+        "startup_wall_s": startup_wall_s,
+        "vehicle_s_per_wall_s": elapsed_s / wall_s,
+        "heartbeats_missed": max(0, expected - heartbeats),
+        "telemetry_per_wall_s": telemetry / wall_s,
+        "telemetry_per_vehicle_s": telemetry / elapsed_s,
+        "lost": len(lost),
+        "rss_mb": rss_mb(),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--drones", type=int, nargs="+", default=[10, 100, 1000])
+    parser.add_argument("--vehicle-s", type=float, default=20.0)
+    parser.add_argument("--profile", action="store_true", help="print the top 15 functions")
+    args = parser.parse_args()
+    print(
+        f"{'drones':>6} {'startup wall s':>14} {'vehicle s/wall s':>16} {'heartbeats missed':>17}"
+        f" {'telemetry/wall s':>16} {'telemetry/veh s':>15} {'lost':>5} {'RSS MB':>7}"
+    )
+    for count in args.drones:
+        profiler = cProfile.Profile() if args.profile else None
+        if profiler:
+            profiler.enable()
+        r = virtual_loop.run(measure(count, args.vehicle_s))
+        if profiler:
+            profiler.disable()
+        print(
+            f"{r['drones']:>6} {r['startup_wall_s']:>14.1f} {r['vehicle_s_per_wall_s']:>16.2f}"
+            f" {r['heartbeats_missed']:>17} {r['telemetry_per_wall_s']:>16.0f}"
+            f" {r['telemetry_per_vehicle_s']:>15.0f} {r['lost']:>5} {r['rss_mb']:>7.0f}",
+            flush=True,
+        )
+        if profiler:
+            pstats.Stats(profiler).sort_stats("tottime").print_stats(15)
+
+
+if __name__ == "__main__":
+    main()
