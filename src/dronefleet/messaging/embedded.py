@@ -32,7 +32,7 @@ class EmbeddedBroker:
         return BrokerUrl(self.host, self.port)
 
     async def start(self) -> EmbeddedBroker:
-        from amqtt.broker import Broker
+        from dronefleet.messaging.broker_index import IndexedBroker
 
         # amqtt logs every connection at INFO; keep our logs readable.
         for name in ("amqtt", "transitions"):
@@ -43,7 +43,7 @@ class EmbeddedBroker:
                 "amqtt.plugins.authentication.AnonymousAuthPlugin": {"allow_anonymous": True}
             },
         }
-        self._broker = Broker(config)
+        self._broker = IndexedBroker(config)
         await self._broker.start()
         return self
 
