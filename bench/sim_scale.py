@@ -12,7 +12,7 @@ the ground's Drone Identifier and Telemetry Analyzer, all on the embedded broker
 - drones marked lost by the Drone Identifier (must be 0);
 - the process's resident memory.
 
-    .venv/bin/python bench/sim_scale.py [--drones 10 100 1000] [--vehicle-s 20] [--profile]
+    .venv/bin/python bench/sim_scale.py [--drones 10 100 1000] [--vehicle-s 20] [--profile] [--wall]
 """
 
 from __future__ import annotations
@@ -85,10 +85,11 @@ async def measure(count: int, vehicle_s: float) -> dict[str, float]:
                             await fleet.add_drone(config, broker.url, home=spot)
                         startup_wall_s = time.perf_counter() - wall0
                         counts["heartbeats"] = counts["telemetry"] = 0
-                        t0, wall0 = loop.time(), time.perf_counter()
+                        t0, v0, wall0 = loop.time(), fleet.clock.now(), time.perf_counter()
                         await asyncio.sleep(vehicle_s)
                         wall_s = time.perf_counter() - wall0
-                        elapsed_s = loop.time() - t0
+                        elapsed_s = loop.time() - t0  # the ground's seconds (wall or virtual)
+                        flown_s = fleet.clock.now() - v0
                         heartbeats, telemetry = counts["heartbeats"], counts["telemetry"]
             finally:
                 await ground.stop()
@@ -96,10 +97,10 @@ async def measure(count: int, vehicle_s: float) -> dict[str, float]:
     return {
         "drones": count,
         "startup_wall_s": startup_wall_s,
-        "vehicle_s_per_wall_s": elapsed_s / wall_s,
+        "vehicle_s_per_wall_s": flown_s / wall_s,
         "heartbeats_missed": max(0, expected - heartbeats),
         "telemetry_per_wall_s": telemetry / wall_s,
-        "telemetry_per_vehicle_s": telemetry / elapsed_s,
+        "telemetry_per_vehicle_s": telemetry / flown_s,
         "lost": len(lost),
         "rss_mb": rss_mb(),
     }
@@ -110,6 +111,11 @@ def main() -> None:
     parser.add_argument("--drones", type=int, nargs="+", default=[10, 100, 1000])
     parser.add_argument("--vehicle-s", type=float, default=20.0)
     parser.add_argument("--profile", action="store_true", help="print the top 15 functions")
+    parser.add_argument(
+        "--wall",
+        action="store_true",
+        help="the way it was before virtual time: an ordinary loop, vehicles paced at 1x wall",
+    )
     args = parser.parse_args()
     print(
         f"{'drones':>6} {'startup wall s':>14} {'vehicle s/wall s':>16} {'heartbeats missed':>17}"
@@ -119,7 +125,10 @@ def main() -> None:
         profiler = cProfile.Profile() if args.profile else None
         if profiler:
             profiler.enable()
-        r = virtual_loop.run(measure(count, args.vehicle_s))
+        if args.wall:
+            r = asyncio.run(measure(count, args.vehicle_s))
+        else:
+            r = virtual_loop.run(measure(count, args.vehicle_s))
         if profiler:
             profiler.disable()
         print(
