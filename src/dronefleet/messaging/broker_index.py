@@ -9,8 +9,9 @@ O(N) and the fleet O(N²): profiled with 100 drones on virtual time, ``_run_broa
 
 :class:`IndexedBroker` keeps amqtt's own routing rules — its matcher (``Broker._matches``), its
 topic-filter plugins, retention for offline persistent sessions, one publish task per target —
-and only changes *which* filters are visited: the filters matching a topic are computed once
-(with amqtt's matcher) and cached until the set of filters changes.
+and only changes *which* filters are visited: a plain filter is found by a dict lookup, and only
+the few wildcard filters are matched (with amqtt's matcher, cached per topic). Two more O(N)
+costs per connection and subscription, from debug lines amqtt formats eagerly, are avoided.
 
 Why not another broker: Mosquitto is faster but is a separate process, which virtual time cannot
 wait for (docs/DESIGN.md §4); the other pure-Python brokers on PyPI are unmaintained. Why not a
@@ -26,53 +27,85 @@ from typing import Any
 from amqtt.broker import Broker
 from amqtt.contexts import Action
 from amqtt.mqtt.constants import QOS_1, QOS_2
+from amqtt.session import Session
 
 
 class _Filters(dict[str, list[Any]]):
-    """amqtt's ``filter -> [(session, qos)]`` map, counting changes to its set of filters."""
+    """amqtt's ``filter -> [(session, qos)]`` map, with its wildcard filters kept apart.
 
-    version = 0
+    A filter without ``+`` or ``#`` matches only the topic equal to it, so it is found by a dict
+    lookup; only the few wildcard filters (the ground's ``+/telemetry/out`` and the like) are
+    matched one by one, and their matches are cached per topic until that set changes."""
+
+    def __init__(self, *args: Any) -> None:
+        super().__init__(*args)
+        self.wildcards: set[str] = {f for f in self if _is_wildcard(f)}
+        self.wildcard_version = 0
 
     def __setitem__(self, key: str, value: list[Any]) -> None:
-        if key not in self:
-            self.version += 1
+        if key not in self and _is_wildcard(key):
+            self.wildcards.add(key)
+            self.wildcard_version += 1
         super().__setitem__(key, value)
 
     def __delitem__(self, key: str) -> None:
-        self.version += 1
+        if key in self.wildcards:
+            self.wildcards.discard(key)
+            self.wildcard_version += 1
         super().__delitem__(key)
 
     def clear(self) -> None:
-        self.version += 1
+        self.wildcards.clear()
+        self.wildcard_version += 1
         super().clear()
 
     def pop(self, key: str, *default: Any) -> Any:
-        self.version += 1
+        if key in self.wildcards:
+            self.wildcards.discard(key)
+            self.wildcard_version += 1
         return super().pop(key, *default)
+
+    def __repr__(self) -> str:
+        # amqtt logs repr(subscriptions) at DEBUG after every SUBSCRIBE, formatted eagerly:
+        # with thousands of filters that alone was O(N) per subscription.
+        return f"<{len(self)} subscription filters, {len(self.wildcards)} with wildcards>"
+
+
+def _is_wildcard(topic_filter: str) -> bool:
+    return "+" in topic_filter or "#" in topic_filter
 
 
 class IndexedBroker(Broker):
-    """amqtt's broker, routing each topic through a cached list of the filters that match it."""
+    """amqtt's broker, routing each topic through an index of the filters that match it."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._subscriptions = _Filters(self._subscriptions)
-        self._route_cache: dict[str, tuple[str, ...]] = {}
-        self._route_version = -1
+        self._wildcard_cache: dict[str, tuple[str, ...]] = {}
+        self._wildcard_cache_version = -1
 
-    def _filters_for(self, topic: str) -> tuple[str, ...]:
+    def _filters_for(self, topic: str) -> list[str]:
         filters = self._subscriptions
         assert isinstance(filters, _Filters)
-        if self._route_version != filters.version:
-            self._route_cache.clear()
-            self._route_version = filters.version
-        found = self._route_cache.get(topic)
-        if found is None:
-            found = tuple(f for f in filters if self._matches(topic, f))
-            if len(self._route_cache) > 100_000:  # a flood of distinct topics: start afresh
-                self._route_cache.clear()
-            self._route_cache[topic] = found
-        return found
+        if self._wildcard_cache_version != filters.wildcard_version:
+            self._wildcard_cache.clear()
+            self._wildcard_cache_version = filters.wildcard_version
+        wild = self._wildcard_cache.get(topic)
+        if wild is None:
+            wild = tuple(f for f in filters.wildcards if self._matches(topic, f))
+            if len(self._wildcard_cache) > 100_000:  # a flood of distinct topics: start afresh
+                self._wildcard_cache.clear()
+            self._wildcard_cache[topic] = wild
+        exact = [topic] if topic in filters else []  # amqtt: a plain filter equals its topic
+        return exact + list(wild)
+
+    async def _publish_retained_messages_for_subscription(
+        self, subscription: tuple[str, int], session: Session
+    ) -> None:
+        # amqtt calls this for every filter in the broker at every CONNECT; with no retained
+        # message there is nothing to send, and its debug lines made each connect O(filters).
+        if self._retained_messages:
+            await super()._publish_retained_messages_for_subscription(subscription, session)
 
     async def _run_broadcast(self, running_tasks: deque[Any]) -> None:
         broadcast = await self._broadcast_queue.get()
