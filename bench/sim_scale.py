@@ -29,7 +29,7 @@ from pathlib import Path
 
 from dronefleet import virtual_loop
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet, homes_around
+from dronefleet.drone.simulated import SimFleet, homes_around, settle_heap
 from dronefleet.geo.types import LLA
 from dronefleet.ground.identifier import EVENTS_TOPIC
 from dronefleet.ground.services import GroundServices
@@ -90,6 +90,7 @@ async def measure(
                             config = DroneConfig(drone_id, heartbeat_interval_s=HEARTBEAT_S)
                             await fleet.add_drone(config, broker.url, home=spot)
                         startup_wall_s = time.perf_counter() - wall0
+                        settle_heap()  # as the demo does once its drones are up
                         counts["heartbeats"] = counts["telemetry"] = 0
                         heard.clear()
                         t0, v0, wall0 = loop.time(), fleet.clock.now(), time.perf_counter()

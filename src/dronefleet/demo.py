@@ -116,7 +116,7 @@ async def _tokens(book: Any, state_dir: Path, given: str | None) -> tuple[str, s
 async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.drone.cli import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
-    from dronefleet.drone.simulated import SimFleet, homes_around
+    from dronefleet.drone.simulated import SimFleet, homes_around, settle_heap
     from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.embedded import EmbeddedBroker
@@ -142,6 +142,7 @@ async def _demo(args: argparse.Namespace) -> int:
                 for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):
                     config = DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs")
                     await fleet.add_drone(config, broker.url, home=spot)
+                settle_heap()
                 print(f"broker: {broker.url}")
                 print(f"web UI: {ground.http_url}/")
                 print(f"API docs: {ground.http_url}/docs")
