@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import cProfile
-import math
 import pstats
 import tempfile
 import time
@@ -105,14 +104,12 @@ async def measure(
                         telemetry = counts["telemetry"]
             finally:
                 await ground.stop()
-    # A heartbeat is missed where the gap between two that arrived spans more than one interval,
-    # or where a drone was not heard for a whole interval at either end of the window.
+    # A heartbeat is missed where two that arrived are 1.5 intervals or more apart, or where a
+    # drone was not heard for that long at either end of the window.
     missed = 0
     for drone_id in ids:
         times = [t0, *heard.get(drone_id, []), t0 + elapsed_s]
-        missed += sum(
-            max(0, math.ceil((b - a) / HEARTBEAT_S - 1e-6) - 1) for a, b in pairwise(times)
-        )
+        missed += sum(max(0, round((b - a) / HEARTBEAT_S) - 1) for a, b in pairwise(times))
     return {
         "drones": count,
         "startup_wall_s": startup_wall_s,
