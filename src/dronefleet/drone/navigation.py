@@ -4,15 +4,30 @@ Navigation requests — absolute (``navigate``) or relative (``changeN``, ``chan
 ``altitude``) — become position targets for the Flight Controller Interface. The current goal is
 remembered so relative moves in a mission compose (two ``changeN 10`` = 20 m north of where the
 first began) and so ``wait_for_flight`` knows what to wait for (Algorithm 1).
+
+A position target is never sent while the vehicle is on the ground or still low in its take-off
+climb: ArduPilot Copter's GUIDED mode turns a position target into a waypoint
+(``ModeGuided::set_destination`` in ArduCopter/mode_guided.cpp), whose controller keeps the
+motors idle while the vehicle is landed, so a ``navigate`` sent right after ``takeoff`` cancelled
+the climb and the autopilot disarmed after DISARM_DELAY (issue 17). ``navigate`` therefore waits
+until the vehicle is :data:`SAFE_HEIGHT_M` up, then flies on at full speed (climbing on the way).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from dronefleet.clock import wait_until
 from dronefleet.drone.fc.base import FcError, FlightController
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
+
+#: Height above home a take-off must reach before a position target may follow it (metres); a
+#: lower take-off target lowers it to half that target.
+SAFE_HEIGHT_M = 2.0
+#: Longest a navigate waits for the take-off to reach that height (vehicle seconds): arming is
+#: done by then, and ArduPilot's climb starts within a second of NAV_TAKEOFF.
+TAKEOFF_WAIT_S = 30.0
 
 
 @dataclass(frozen=True)
@@ -47,6 +62,7 @@ class NavigationProcessor:
         self.tolerance = tolerance or Tolerance()
         self.goal: LLA | None = None
         self.landing = False  # after a land request, the goal is being on the ground
+        self.takeoff_height_m: float | None = None  # the take-off climb in progress, if any
 
     # -- requests ----------------------------------------------------------------------------
     async def takeoff(self, altitude_m: float | None = None) -> LLA:
@@ -54,6 +70,7 @@ class NavigationProcessor:
         self._check_height(height)
         await self.fc.takeoff(height)
         self.landing = False
+        self.takeoff_height_m = height
         here = self.fc.position()
         self.goal = LLA(here.lat, here.lon, self.fc.home().alt_m + height)
         return self.goal
@@ -79,6 +96,7 @@ class NavigationProcessor:
     async def land(self) -> None:
         await self.fc.land()
         self.goal = None
+        self.takeoff_height_m = None
         self.landing = True
 
     async def hold(self) -> LLA:
@@ -114,6 +132,31 @@ class NavigationProcessor:
             return self.goal
         return self.fc.position()
 
+    def _height_m(self) -> float:
+        return self.fc.position().alt_m - self.fc.home().alt_m
+
+    async def _airborne(self, target: LLA) -> None:
+        """Take off first if still on the ground, and wait until safely up (see module doc)."""
+        state = self.fc.state()
+        if self.takeoff_height_m is None:
+            if state.in_air and self._height_m() > 0.5:
+                return  # flying already (taken off earlier, or by someone else)
+            await self.takeoff(max(target.alt_m - self.fc.home().alt_m, SAFE_HEIGHT_M))
+        assert self.takeoff_height_m is not None
+        safe_m = min(SAFE_HEIGHT_M, 0.5 * self.takeoff_height_m)
+        up = await wait_until(
+            self.fc.clock,
+            lambda: self._height_m() >= safe_m,
+            poll_s=0.05,
+            timeout_s=TAKEOFF_WAIT_S,
+        )
+        if not up:
+            raise FcError(
+                f"take-off did not reach {safe_m:g} m within {TAKEOFF_WAIT_S:g} s "
+                f"(at {self._height_m():.1f} m): is the vehicle armed and in a guided mode?"
+            )
+        self.takeoff_height_m = None
+
     def _check_height(self, height_m: float) -> None:
         if height_m < 0:
             raise FcError(f"target {height_m:.1f} m is below home; targets must be at or above it")
@@ -126,6 +169,7 @@ class NavigationProcessor:
         state = self.fc.state()
         if not state.armed:
             raise FcError("vehicle is not armed: arm (and take off) before navigating")
+        await self._airborne(target)
         await self.fc.goto(target)
         self.goal = target
         self.landing = False

@@ -208,6 +208,18 @@ class SimVehicle:
         self._target = (target.n, target.e, target.d)
         self._fly(FlightMode.GUIDED)
 
+    def idle_on_ground(self) -> None:
+        """Cut the climb of a take-off that has not left the ground: armed, motors idle, down.
+
+        What ArduPilot Copter does when its GUIDED take-off is replaced by a waypoint before the
+        vehicle has lifted off (see :meth:`dronefleet.sim.mavlink.copter.SimCopter.guided_target`).
+        """
+        if self._phase is not _Phase.FLYING:
+            return
+        self._kin.rest_on_ground()
+        self._phase = _Phase.GROUND
+        self._target = None
+
     def hold(self) -> None:
         """Brake and hold the position where the vehicle comes to rest."""
         if self._phase is _Phase.GROUND:

@@ -102,7 +102,7 @@ def test_auto_flies_the_mission_and_reports_each_item():
     )
     copter.set_mode(CopterMode.GUIDED)
     copter.arm()
-    copter.set_mode(CopterMode.AUTO)
+    copter.start_mission()  # MISSION_START: AUTO on the ground waits for it
     run(copter, 60)
     assert events.reached == [1, 2, 4]
     assert events.current[:3] == [1, 2, 4]

@@ -7,6 +7,14 @@ and armed, position targets only in GUIDED, no arming in AUTO/RTL/LAND), RTL (cl
 fly home, land), BRAKE/LOITER holds, the battery failsafe's switch to LAND, and AUTO, which flies
 the mission on board (:mod:`.auto`) whether or not anyone is listening. Refusals raise
 :class:`Refused` with the text the endpoint sends as STATUSTEXT before the COMMAND_ACK.
+
+What ArduPilot does that a forgiving simulator would not (issue 17; ArduPilot upstream 64a9c78):
+- a GUIDED position target while the vehicle is still on the ground replaces the take-off with a
+  waypoint, whose controller keeps the motors idle while landed (ArduCopter/mode_guided.cpp,
+  ``ModeGuided::set_destination`` and ``wp_control_run``): the vehicle stays down;
+- armed, on the ground and idle for DISARM_DELAY seconds, it disarms
+  (ArduCopter/motors.cpp, ``Copter::auto_disarm_check``);
+- AUTO on the ground does not start the mission until MISSION_START (``auto_armed``).
 """
 
 from __future__ import annotations
@@ -26,6 +34,8 @@ from dronefleet.sim.vehicle import SimVehicle, VehicleError
 
 log = logging.getLogger(__name__)
 
+#: Below this height a take-off has not left the ground for ArduPilot's land detector (m).
+_LIFTOFF_M = 0.3
 #: Modes ArduPilot refuses to arm in (Mode::allows_arming()).
 _NOT_ARMABLE = {CopterMode.AUTO, CopterMode.RTL, CopterMode.SMART_RTL, CopterMode.LAND}
 #: Modes that hold position in the air without pilot input here (no RC in the sim).
@@ -83,6 +93,8 @@ class SimCopter:
         self._failsafe_noted = False
         self._was_rebooting = False
         self.picture_count = 0
+        self.auto_armed = False  # AUTO may fly its mission (MISSION_START, or AUTO in the air)
+        self._idle_since_s: float | None = None
 
     # -- time ---------------------------------------------------------------------------------
     def boot_ms(self) -> int:
@@ -102,14 +114,13 @@ class SimCopter:
         self._leave_mode()
         self.mode = mode
         if not v.in_air or v.falling:
-            if mode is CopterMode.AUTO and v.armed:
-                self.runner.start()
-            return
+            return  # AUTO on the ground waits for MISSION_START
         if mode is CopterMode.LAND:
             v.land()
         elif mode in (CopterMode.RTL, CopterMode.SMART_RTL):
             self.start_rtl()
         elif mode is CopterMode.AUTO:
+            self.auto_armed = True
             self.runner.start()
         else:  # GUIDED starts by holding where it is, like the hold modes
             v.hold()
@@ -117,6 +128,17 @@ class SimCopter:
     def _leave_mode(self) -> None:
         self.runner.stop()
         self._rtl_phase = None
+        self.auto_armed = False
+
+    def start_mission(self) -> None:
+        """MISSION_START: AUTO, and fly (or resume) the mission (must be armed)."""
+        if not self.vehicle.armed:
+            raise Refused("Mission: arm first")
+        self.set_mode(CopterMode.AUTO)
+        self.auto_armed = True
+        if not self.runner.running:
+            self.runner.finished = False
+            self.runner.start()
 
     # -- commands -----------------------------------------------------------------------------
     def arm(self, force: bool = False) -> None:
@@ -155,6 +177,9 @@ class SimCopter:
         v = self.vehicle
         if self.mode is not CopterMode.GUIDED:
             raise Refused(f"Guided: not in GUIDED mode (in {self.mode.name})")
+        if not v.in_air or v.relative_alt_m < _LIFTOFF_M:
+            v.idle_on_ground()  # accepted, and the vehicle stays down (see the module doc)
+            return
         try:
             v.goto(target)
         except VehicleError as exc:
@@ -221,9 +246,24 @@ class SimCopter:
         if self._rtl_phase is not None and self.mode in (CopterMode.RTL, CopterMode.SMART_RTL):
             self._rtl_step()
         elif self.mode is CopterMode.AUTO:
-            if v.armed and not self.runner.running and not self.runner.finished:
+            if v.armed and self.auto_armed and not self.runner.running and not self.runner.finished:
                 self.runner.start()
             self.runner.update()
+        self._auto_disarm()
+
+    def _auto_disarm(self) -> None:
+        v = self.vehicle
+        delay_s = self.params.get("DISARM_DELAY")
+        if not v.armed or v.in_air or delay_s <= 0:
+            self._idle_since_s = None
+            return
+        if self._idle_since_s is None:
+            self._idle_since_s = v.time_s
+        elif v.time_s - self._idle_since_s >= delay_s:
+            self._idle_since_s = None
+            v.disarm()
+            self._leave_mode()
+            self.events.statustext(mav.MAV_SEVERITY_INFO, "Disarming motors (auto disarm)")
 
     def rtl_step_for_mission(self) -> bool:
         """RTL as a mission item (the runner calls this): True once landed."""

@@ -151,15 +151,15 @@ class CommandHandler:
         return mav.MAV_RESULT_ACCEPTED
 
     def _mission_start(self, p: Params, frame: int) -> int:
+        # Copter denies a first/last item (GCS_MAVLink_Copter.cpp, MAV_CMD_MISSION_START: "first-
+        # item/last item not supported"); it starts or resumes at the current item, which
+        # DO_SET_MISSION_CURRENT chooses.
+        if p[0] != 0 or p[1] != 0:
+            raise Refused(None, mav.MAV_RESULT_DENIED)
         copter = self.copter
         if len(copter.mission) <= 1:
             raise Refused("Mission: no mission to start")
-        first = int(p[0]) or 1
-        copter.set_mode(CopterMode.AUTO)
-        copter.runner.current = first
-        copter.runner.finished = False
-        if copter.vehicle.armed:
-            copter.runner.start(first)
+        copter.start_mission()
         return mav.MAV_RESULT_ACCEPTED
 
     def _set_current(self, p: Params, frame: int) -> int:
@@ -170,8 +170,9 @@ class CommandHandler:
         return mav.MAV_RESULT_ACCEPTED
 
     def _picture(self) -> int:
+        # No camera configured (CAM1_TYPE 0): SITL answers FAILED (issue 17).
         info = self.copter.take_picture()
-        return mav.MAV_RESULT_ACCEPTED if info is not None else mav.MAV_RESULT_UNSUPPORTED
+        return mav.MAV_RESULT_ACCEPTED if info is not None else mav.MAV_RESULT_FAILED
 
     def _reposition(self, p: Params, frame: int) -> int:
         if int(p[1]) & mav.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE:

@@ -27,6 +27,7 @@ DEFAULTS: dict[str, tuple[float, int]] = {
     "WPNAV_RADIUS": (200, _REAL32),
     "RTL_ALT": (1500, _INT32),
     "LAND_SPEED": (50, _INT32),
+    "DISARM_DELAY": (10, _INT32),  # s on the ground, armed and idle, before an auto-disarm
     "BATT_MONITOR": (4, _INT32),
     "BATT_CAPACITY": (5500, _INT32),
     "BATT_LOW_MAH": (275, _INT32),

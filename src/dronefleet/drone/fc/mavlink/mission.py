@@ -150,9 +150,12 @@ class MissionClient:
             raise FcError(f"mission clear refused ({ack.type})")
 
     async def start(self, first_index: int = 0) -> None:
-        """Fly the mission on board from ``first_index`` (switches to AUTO; must be armed)."""
-        first = first_index + self.offset
-        await self.commands.long(mav.MAV_CMD_MISSION_START, first, 0)
+        """Fly the mission on board from ``first_index`` (switches to AUTO; must be armed).
+
+        Copter denies MISSION_START with a first or last item (GCS_MAVLink_Copter.cpp): the
+        first item is made current, then the mission starts there with (0, 0)."""
+        await self.set_current(first_index)
+        await self.commands.long(mav.MAV_CMD_MISSION_START, 0, 0)
 
     async def set_current(self, index: int) -> None:
         seq = index + self.offset
