@@ -48,6 +48,8 @@ DEFAULT_STREAMS_HZ = {
     "SYSTEM_TIME": 1.0,
     "HOME_POSITION": 0.5,
     "MISSION_CURRENT": 1.0,
+    # The echo of each GUIDED target, which confirms it (ArduPilot sends it only when asked).
+    "POSITION_TARGET_GLOBAL_INT": 4.0,
 }
 MIN_TARGET_ALT_M = 0.5
 #: ArduPilot's "really" values: disarm in flight, reboot while armed.
@@ -290,7 +292,7 @@ class MavlinkFlightController(VehicleView):
             echo = await self.link.wait_for(
                 "POSITION_TARGET_GLOBAL_INT",
                 lambda m: abs(m.lat_int - lat) <= 1 and abs(m.lon_int - lon) <= 1,
-                0.3,
+                0.6,  # wall seconds: the echo streams at 4 Hz of vehicle time
             )
             if echo is not None:
                 return

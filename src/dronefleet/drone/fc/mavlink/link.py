@@ -232,11 +232,14 @@ class MavlinkLink:
             remove()
 
     def reason_since(self, wall: float) -> str | None:
-        """The latest STATUSTEXT received after ``wall`` (the autopilot's reason for a refusal)."""
-        for when, _, text in reversed(self.statustexts):
-            if when >= wall:
+        """The latest warning (or worse) STATUSTEXT received after ``wall``: the autopilot's
+        reason for a refusal. Informational texts (ArduPilot's "EKF3 IMU1 ... yaw alignment
+        complete" arrives just after take-off) are news, not reasons."""
+        for when, severity, text in reversed(self.statustexts):
+            if when < wall:
+                break
+            if severity <= mav.MAV_SEVERITY_WARNING:
                 return text
-            break
         return None
 
     # -- sending ------------------------------------------------------------------------------
