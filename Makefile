@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format system-deps web-deps clean
+.PHONY: demo test test-sitl lint format system-deps web-deps clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -26,6 +26,11 @@ test: $(STAMP) system-deps web-deps
 	$(BIN)/ruff format --check src tests bench
 	$(BIN)/ruff check src tests bench
 	bash scripts/run-tests.sh
+
+# Only the real-autopilot tests: ARDUPILOT_SITL names ArduPilot Copter SITL (see README).
+test-sitl: $(STAMP) system-deps
+	@test -n "$(ARDUPILOT_SITL)" || { echo "set ARDUPILOT_SITL to the arducopter binary, its .gz, or their folder (README)"; exit 2; }
+	.venv/bin/python -m pytest -q -p no:cacheprovider -m sitl tests/integration/sitl
 
 lint: $(STAMP)
 	$(BIN)/ruff format src tests bench

@@ -1,0 +1,83 @@
+"""Missions made by the planner fly on ArduPilot Copter SITL, through the REST API (issue 17).
+
+Before: the planner's default step mission never left the ground (a GUIDED target sent 0.01 s
+after NAV_TAKEOFF replaced the take-off with a waypoint, and DISARM_DELAY disarmed the copter),
+and a two-vehicle split left both on the ground.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from dronefleet.geo.ned import ned_to_lla
+from dronefleet.geo.types import LLA, NED
+
+pytestmark = [pytest.mark.integration, pytest.mark.sitl]
+
+ALT_M = 20.0
+
+
+def home_of(drone: dict) -> LLA:
+    h = drone["home"]
+    return LLA(h["lat"], h["lon"], h["alt_m"])
+
+
+def step_mission(home: LLA, legs: list[tuple[float, float]]) -> list[dict]:
+    steps: list[dict] = []
+    for n, e in legs:
+        p = ned_to_lla(NED(n, e, 0), home)
+        steps += [
+            {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": ALT_M},
+            {"command": "wait_for_flight"},
+        ]
+    return [*steps, {"command": "land"}, {"command": "wait_for_flight"}]
+
+
+def highest_m(ground, mission_id: str) -> dict[str, float]:
+    log = ground.api("GET", f"/api/v1/missions/{mission_id}/log").json()
+    return {
+        d["drone_id"]: max((p.get("alt") or 0.0) for p in d["path"] or [{}])  # m above home
+        for d in log["drones"]
+    }
+
+
+@pytest.mark.parametrize("strategy", ["ours", "seed"])
+def test_the_planners_step_mission_takes_off_and_completes(ground, fly, strategy):
+    fly("SITL_1")
+    home = home_of(ground.drone("SITL_1"))
+    spec = {
+        "name": f"step mission ({strategy})",
+        "drones": ["SITL_1"],
+        "steps": step_mission(home, [(100, 0), (100, 100), (0, 100), (0, 0), (50, 50)]),
+        "options": {"strategy": strategy},
+    }
+    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
+    assert created.status_code == 201, created.text
+    mission = ground.wait_ended(created.json()["mission_id"])
+    assert mission["state"] == "completed", mission.get("error")
+    assert mission["waypoints_reached"] == mission["waypoints"] == 6
+    assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2
+
+
+def test_an_area_split_over_two_vehicles_flies_with_both_airborne(ground, fly):
+    fly("SITL_1")
+    fly("SITL_2")
+    home = home_of(ground.drone("SITL_1"))
+    corners = [ned_to_lla(NED(n, e, 0), home) for n, e in [(20, 0), (100, 0), (100, 60), (20, 60)]]
+    spec = {
+        "name": "split",
+        "drones": ["SITL_1", "SITL_2"],
+        "area": {
+            "polygon": [[c.lat, c.lon] for c in corners],
+            "spacing_m": 20,
+            "altitude_m": ALT_M,
+        },
+    }
+    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
+    assert created.status_code == 201, created.text
+    mission = ground.wait_ended(created.json()["mission_id"], timeout_s=300)
+    assert mission["state"] == "completed", mission.get("error")
+    assert mission["waypoints_reached"] == mission["waypoints"]
+    heights = highest_m(ground, mission["mission_id"])
+    assert set(heights) == {"SITL_1", "SITL_2"}
+    assert all(h > ALT_M - 2 for h in heights.values()), heights
