@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import inspect
 import logging
 import math
 import re
@@ -208,10 +209,10 @@ class GearManager:
     async def _on_request(self, _topic: str, payload: bytes) -> None:
         if not self._running:
             return
-        reply = self.answer(payload)
+        reply = await self.answer(payload)
         await self.client.publish(self._out_topic, reply, qos=QOS_COMMAND)
 
-    def answer(self, payload: bytes) -> GearReply:
+    async def answer(self, payload: bytes) -> GearReply:
         """The reply to one raw request; malformed or unknown requests get ``ok=False`` and why."""
         try:
             data = decode_object(payload)
@@ -226,12 +227,12 @@ class GearManager:
         except MessageError as exc:
             return self._reply(request_id, query, error=f"bad gear request: {exc}")
         try:
-            return self._serve(request)
+            return await self._serve(request)
         except Exception as exc:  # a sensor or camera driver failing must not kill the manager
             log.exception("gear query %s failed", request.query)
             return self._reply(request_id, query, error=f"{request.query} failed: {exc}")
 
-    def _serve(self, request: GearRequest) -> GearReply:
+    async def _serve(self, request: GearRequest) -> GearReply:
         rid, query = request.request_id, request.query.value
         if request.query is GearQuery.SPECS:
             return self._reply(rid, query, specs=self.specs)
@@ -248,7 +249,10 @@ class GearManager:
         if request.query is GearQuery.CAPTURE:
             if self.camera is None:
                 return self._reply(rid, query, error=f"drone {self.drone_id} has no camera")
-            return self._reply(rid, query, capture=dict(self.camera.capture()))
+            picture = self.camera.capture()
+            if inspect.isawaitable(picture):  # an autopilot's camera confirms asynchronously
+                picture = await picture
+            return self._reply(rid, query, capture=dict(picture))
         return self._reply(rid, query, error=f"unsupported gear query {query!r}")
 
     def _find_sensor(self, name: str | None) -> Sensor | str:

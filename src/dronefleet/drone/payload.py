@@ -6,6 +6,7 @@ and camera model.
 
 from __future__ import annotations
 
+from collections.abc import Awaitable
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -31,7 +32,8 @@ class Sensor(Protocol):
 class Camera(Protocol):
     name: str
 
-    def capture(self) -> dict[str, Any]:
-        """Take a picture; returns at least ``lat``, ``lon``, ``alt_m``, ``vehicle_time_s`` and
-        ``index``, and ``file`` when an image file was written."""
+    def capture(self) -> dict[str, Any] | Awaitable[dict[str, Any]]:
+        """Take a picture; returns (or, for a camera that confirms later, resolves to) at least
+        ``lat``, ``lon``, ``alt_m``, ``vehicle_time_s`` and ``index``, and ``file`` when an image
+        file was written. Raises when no picture was taken."""
         ...

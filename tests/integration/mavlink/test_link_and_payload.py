@@ -79,10 +79,24 @@ async def test_co2_and_pictures_come_over_mavlink(sim_fleet):
             await wait_wall(lambda: "CO2" in fc.named_values)
             reading = sensors["CO2"].read()
             assert reading.unit == "ppm" and reading.value > 1000  # near the plume's centre
-            shot = camera.capture()
+            shot = await camera.capture()
             assert shot["index"] == 1
             await wait_wall(lambda: fc.captures)
             assert fc.captures[0]["lat"] == pytest.approx(fc.position().lat, abs=1e-5)
             assert server.endpoints[0].copter.picture_count == 1
+        finally:
+            await fc.close()
+
+
+async def test_a_photo_on_a_vehicle_without_a_camera_fails_with_the_reason(sim_fleet):
+    # SITL with CAM1_TYPE 0 answers IMAGE_START_CAPTURE with FAILED: no picture may be reported.
+    async with sim_fleet(1, speedup=20) as server:
+        server.endpoints[0].copter.camera = None
+        fc = await open_flight_controller(url(server.endpoints[0]))
+        try:
+            _, camera = payload(fc)
+            with pytest.raises(FcError, match=r"no picture taken: .*refused \(FAILED\)"):
+                await camera.capture()
+            assert fc.captures == []
         finally:
             await fc.close()

@@ -5,12 +5,11 @@ autopilot's camera trigger (MAV_CMD_IMAGE_START_CAPTURE → CAMERA_IMAGE_CAPTURE
 
 from __future__ import annotations
 
-import math
+import asyncio
 from typing import TYPE_CHECKING, Any
 
 from dronefleet.drone.fc.base import FcError
 from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.link import LinkLost
 from dronefleet.drone.payload import Reading
 
 if TYPE_CHECKING:
@@ -41,31 +40,47 @@ class NamedValueSensor:
 
 
 class AutopilotCamera:
-    """Triggers the autopilot's camera; the picture's own record (CAMERA_IMAGE_CAPTURED) lands in
-    ``fc.captures`` when the autopilot reports it."""
+    """Triggers the autopilot's camera and reports a picture only once the autopilot confirms it:
+    the COMMAND_ACK must be ACCEPTED (SITL without a camera, CAM1_TYPE 0, answers FAILED), then
+    the autopilot's record of the picture (CAMERA_IMAGE_CAPTURED, or ArduPilot's CAMERA_FEEDBACK)
+    must arrive. Before, the ACK was not awaited and 28 photos that were never taken were
+    reported as taken (issue 17)."""
+
+    #: Wall seconds to wait for the picture's record once the trigger is accepted.
+    FEEDBACK_TIMEOUT_S = 3.0
 
     def __init__(self, fc: MavlinkFlightController, name: str = "camera") -> None:
         self.name = name
         self._fc = fc
         self._count = 0
 
-    def capture(self) -> dict[str, Any]:
+    async def capture(self) -> dict[str, Any]:
         fc = self._fc
-        self._count += 1
-        command = mav.MAVLink_command_long_message(
-            fc.link.target_system or 0, fc.link.target_component,
-            mav.MAV_CMD_IMAGE_START_CAPTURE, 0, 0, 0, 1, self._count, math.nan, math.nan, math.nan,
-        )  # fmt: skip
+        index = self._count + 1
+        feedback = asyncio.ensure_future(
+            fc.link.wait_for(
+                ("CAMERA_IMAGE_CAPTURED", "CAMERA_FEEDBACK"), None, self.FEEDBACK_TIMEOUT_S
+            )
+        )
         try:
-            fc.link.send(command)  # the Camera protocol is synchronous: the ACK is not awaited
-        except LinkLost as exc:
-            raise FcError(f"camera: {exc}") from exc
+            await fc.commands.long(mav.MAV_CMD_IMAGE_START_CAPTURE, 0, 0, 1, index)
+        except FcError as exc:
+            feedback.cancel()
+            raise FcError(f"camera: no picture taken: {exc}") from exc
+        record = await feedback
+        if record is None:
+            raise FcError(
+                "camera: the autopilot accepted the trigger but reported no picture (no "
+                f"CAMERA_IMAGE_CAPTURED or CAMERA_FEEDBACK within {self.FEEDBACK_TIMEOUT_S:g} s)"
+            )
+        self._count = index
         here = fc.position()
         return {
-            "index": self._count,
+            "index": index,
             "lat": here.lat,
             "lon": here.lon,
             "alt_m": here.alt_m,
             "relative_alt_m": here.alt_m - fc.home().alt_m,
             "vehicle_time_s": fc.clock.now(),
+            "confirmed_by": record.get_type(),
         }
