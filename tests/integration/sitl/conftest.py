@@ -107,15 +107,22 @@ class Vehicle:
             self.proc.wait()
 
 
-def _start_sitl(binary: Path, parm: Path | None, folder: Path, instance: int) -> Vehicle:
+def _start_sitl(
+    binary: Path, parm: Path | None, folder: Path, instance: int, params: dict[str, float]
+) -> Vehicle:
     folder.mkdir(parents=True, exist_ok=True)
     cmd = [
         str(binary), "--model", "+", "--speedup", str(SITL_SPEEDUP),
         "--home", ",".join(str(x) for x in (*HOME, 0)), "-I", str(instance),
         "--sysid", str(instance + 1),
     ]  # fmt: skip
-    if parm is not None:
-        cmd += ["--defaults", str(parm)]
+    defaults = [str(parm)] if parm is not None else []
+    if params:
+        extra = folder / "test.parm"
+        extra.write_text("".join(f"{name} {value}\n" for name, value in params.items()))
+        defaults.append(str(extra))
+    if defaults:
+        cmd += ["--defaults", ",".join(defaults)]
     log = open(folder / "sitl.log", "ab")  # noqa: SIM115 - closed with the process
     proc = subprocess.Popen(cmd, cwd=folder, stdout=log, stderr=subprocess.STDOUT)
     # Ready when it waits for its SERIAL0 client (its clock starts with that client: no probe).
@@ -128,12 +135,17 @@ def _start_sitl(binary: Path, parm: Path | None, folder: Path, instance: int) ->
 
 
 @contextlib.contextmanager
-def sitl_vehicle(sitl_binary: tuple[Path, Path | None], folder: Path) -> Iterator[Vehicle]:
-    """One SITL Copter on a free instance number, retried once if it exits at start."""
+def sitl_vehicle(
+    sitl_binary: tuple[Path, Path | None], folder: Path, params: dict[str, float] | None = None
+) -> Iterator[Vehicle]:
+    """One SITL Copter on a free instance number, retried once if it exits at start;
+    ``params`` are loaded as defaults after SITL's own."""
     binary, parm = sitl_binary
     vehicle = None
     for attempt in range(2):
-        vehicle = _start_sitl(binary, parm, folder / f"try{attempt}", _free_instance())
+        vehicle = _start_sitl(
+            binary, parm, folder / f"try{attempt}", _free_instance(), params or {}
+        )
         if vehicle.proc.poll() is None:
             break
     assert vehicle is not None
@@ -227,11 +239,12 @@ def ground(tmp_path) -> Iterator[Ground]:
 
 @pytest.fixture
 def fly(ground, sitl_binary, tmp_path):
-    """``fly(drone_id, *drone_args)``: a SITL vehicle and ``dronefleet drone`` on it, online."""
+    """``fly(drone_id, *drone_args, params={...})``: a SITL vehicle (with those parameters) and
+    ``dronefleet drone`` on it, online and ready to arm."""
     with contextlib.ExitStack() as stack:
 
-        def start(drone_id: str, *extra: str) -> Vehicle:
-            vehicle = stack.enter_context(sitl_vehicle(sitl_binary, tmp_path / drone_id))
+        def start(drone_id: str, *extra: str, params: dict[str, float] | None = None) -> Vehicle:
+            vehicle = stack.enter_context(sitl_vehicle(sitl_binary, tmp_path / drone_id, params))
             cmd = dronefleet(
                 "drone", "--id", drone_id, "--broker", ground.broker, "--fc", "mavlink",
                 "--fc-url", vehicle.url, "--heartbeat-s", "1", *extra,
