@@ -68,6 +68,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="autopilot link, e.g. udpout:127.0.0.1:14550 (mavlink) or tcp:127.0.0.1:9000",
     )
     add_sim_arguments(p)
+    p.add_argument(
+        "--onboard-missions",
+        action="store_true",
+        help="fly missions on board the autopilot (MAVLink AUTO) when every step allows it; "
+        "a mission's own 'onboard' option wins",
+    )
     p.add_argument("--log-dir", type=Path, help="rotating JSONL logs go here")
     p.add_argument("--gear-dir", type=Path, help="folder with specs.json and sensors.json")
     p.add_argument("--heartbeat-s", type=float, default=5.0, help="heartbeat interval (vehicle s)")
@@ -94,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         battery_critical_pct=args.battery_critical,
         log_dir=args.log_dir,
         gear_dir=args.gear_dir,
+        onboard_missions=args.onboard_missions,
     )
     if args.sensor_bound:
         config.sensor_bounds = dict(args.sensor_bound)

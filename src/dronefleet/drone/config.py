@@ -20,6 +20,9 @@ class DroneConfig:
     # time and flood the broker, so at most this many messages per wall second are sent.
     telemetry_max_wall_hz: float = 10.0
     battery_critical_pct: float = 20.0
+    # Fly eligible missions on board (MAVLink AUTO) unless a mission asks otherwise
+    # (``MissionRequest.onboard``); ``dronefleet drone --onboard-missions``.
+    onboard_missions: bool = False
     sensor_bounds: dict[str, tuple[float | None, float | None]] = field(
         default_factory=lambda: {"co2_ppm": (None, 1000.0)}
     )

@@ -124,7 +124,8 @@ class MissionWorker:
                 decode_time_s=round(decode_time_s, 6),
             )
             self._task = asyncio.create_task(
-                self._run(mission_id, len(steps), request.start_index), name=f"mission:{mission_id}"
+                self._run(mission_id, len(steps), request.start_index, request.onboard),
+                name=f"mission:{mission_id}",
             )
 
     async def _cancel_current(self, *, reason: str = "", request_id: str | None = None) -> None:
@@ -147,13 +148,15 @@ class MissionWorker:
         self.controller.mission_id = None
 
     # -- running -----------------------------------------------------------------------------
-    async def _run(self, mission_id: str, count: int, start_index: int) -> None:
+    async def _run(
+        self, mission_id: str, count: int, start_index: int, onboard_requested: bool | None = None
+    ) -> None:
         mission_started = self.clock.now()
         trigger = self.controller.camera_trigger
         trigger.pictures = []
         self._sensor_names = None
         steps = list(self.queue)
-        if await onboard.fly(self, mission_id, steps, count):  # the autopilot flew it
+        if await onboard.fly(self, mission_id, steps, count, onboard_requested):  # on board
             self.queue.clear()
             self._finish()
             return

@@ -7,9 +7,10 @@ autopilot's MISSION_CURRENT / MISSION_ITEM_REACHED back into the same per-step
 :class:`~dronefleet.messaging.missions.MissionProgress` reports on ``<id>/mission/out``.
 
 When: the flight controller has a ``mission`` facade (MAVLink), every step is one the autopilot can
-fly (:data:`FLYABLE`; ``arm`` only before the first flying step) and either the drone's config says
-``onboard_missions=True`` (default :data:`ONBOARD_MISSIONS`) or the mission has at least
-:data:`ONBOARD_MIN_STEPS` steps. ``MissionRequest`` is unchanged: the drone decides.
+fly (:data:`FLYABLE`; ``arm`` only before the first flying step), and the mission asks for it
+(``MissionRequest.onboard``, from the planner's ``options.onboard``) or, when it does not say, the
+drone is configured for it (``DroneConfig.onboard_missions``, ``dronefleet drone
+--onboard-missions``) or the mission has at least :data:`ONBOARD_MIN_STEPS` steps.
 
 Each report is built when the autopilot's event arrives (its vehicle time and position) and queued;
 publishing is QoS 1, and the broker client waits out broker outages, so reports made while the
@@ -40,8 +41,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-#: Fly every eligible mission on board unless the drone's config says otherwise.
-ONBOARD_MISSIONS = False
 #: Missions with at least this many steps go on board even without the flag (None: never).
 ONBOARD_MIN_STEPS: int | None = None
 #: Step commands the autopilot can fly.
@@ -71,11 +70,15 @@ class OnboardPlan:
     thresholds: list[tuple[int, Any, int]]  # (step index, step, level)
 
 
-def wanted(worker: MissionWorker, steps: list[tuple[int, Any]]) -> bool:
+def wanted(
+    worker: MissionWorker, steps: list[tuple[int, Any]], requested: bool | None = None
+) -> bool:
     fc = worker.controller.fc
     if getattr(fc, "mission", None) is None or not steps:
         return False
-    if getattr(worker.config, "onboard_missions", ONBOARD_MISSIONS):
+    if requested is not None:
+        return requested
+    if worker.config.onboard_missions:
         return True
     return ONBOARD_MIN_STEPS is not None and len(steps) >= ONBOARD_MIN_STEPS
 
@@ -133,10 +136,14 @@ def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | N
 
 
 async def fly(
-    worker: MissionWorker, mission_id: str, steps: list[tuple[int, Any]], count: int
+    worker: MissionWorker,
+    mission_id: str,
+    steps: list[tuple[int, Any]],
+    count: int,
+    requested: bool | None = None,
 ) -> bool:
     """Fly ``steps`` on board, reporting each; False (nothing done) when they cannot be."""
-    if not wanted(worker, steps) or (onboard := plan(worker, steps)) is None:
+    if not wanted(worker, steps, requested) or (onboard := plan(worker, steps)) is None:
         return False
     fc = worker.controller.fc
     try:
@@ -144,7 +151,12 @@ async def fly(
     except FcError as exc:
         log.warning("%s: on-board upload failed, flying from here: %s", worker.config.drone_id, exc)
         return False
-    log.info("%s: mission %s flies on board (%d items)", fc, mission_id, len(onboard.items))
+    log.info(
+        "%s: mission %s flies on board (%d items)",
+        worker.config.drone_id,
+        mission_id,
+        len(onboard.items),
+    )
     outbox: asyncio.Queue[MissionProgress | None] = asyncio.Queue()
     publisher = asyncio.create_task(_publish(worker, outbox), name=f"onboard-out:{mission_id}")
     try:
@@ -162,6 +174,8 @@ async def fly(
 
 
 async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, outbox) -> None:
+    from dronefleet.drone.fc.mavlink import items as mi
+
     clock = worker.clock
     started = clock.now()
 
@@ -201,6 +215,10 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
         )
     pending = list(onboard.thresholds)
     level = -1
+    # ArduPilot reports no MISSION_ITEM_REACHED for a final NAV_LAND: it lands, disarms, and the
+    # mission goes back to item 1. Landed and disarmed once that item was current is its end.
+    lands = [i for i, item in enumerate(onboard.items) if item.command == mi.mav.MAV_CMD_NAV_LAND]
+    land_level = 2 * lands[-1] if lands else None
     events: asyncio.Queue[Any] = asyncio.Queue()
     fc.mission.current_seq = None  # what was current before the upload says nothing now
     pump = asyncio.create_task(_pump(fc, events), name=f"onboard-progress:{mission_id}")
@@ -227,6 +245,10 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
                 )
                 began = now
             state = fc.state()
+            landed = not state.armed and not state.in_air
+            if pending and land_level is not None and level >= land_level and landed:
+                level = 2 * len(onboard.items)  # every step up to the landing is done
+                continue
             if pending and (state.mode is not FlightMode.MISSION or not state.armed):
                 left_since = left_since if left_since is not None else clock.now()
                 if clock.now() - left_since > LEFT_AUTO_GRACE_S:

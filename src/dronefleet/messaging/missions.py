@@ -36,6 +36,11 @@ class MissionRequest(Message):
     mission: str | None = Field(default=None, description="base64 of a JSON list of steps")
     steps: list[dict[str, Any]] | None = Field(default=None, max_length=MAX_STEPS)
     start_index: int = Field(default=0, ge=0, description="index of the first step's label")
+    onboard: bool | None = Field(
+        default=None,
+        description="fly on board the autopilot (true), from the companion computer (false), "
+        "or as the drone is configured (null)",
+    )
 
 
 def encode_steps_base64(steps: list[dict[str, Any]]) -> str:

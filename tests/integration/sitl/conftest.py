@@ -246,7 +246,7 @@ def fly(ground, sitl_binary, tmp_path):
         def start(drone_id: str, *extra: str, params: dict[str, float] | None = None) -> Vehicle:
             vehicle = stack.enter_context(sitl_vehicle(sitl_binary, tmp_path / drone_id, params))
             cmd = dronefleet(
-                "drone", "--id", drone_id, "--broker", ground.broker, "--fc", "mavlink",
+                "-v", "drone", "--id", drone_id, "--broker", ground.broker, "--fc", "mavlink",
                 "--fc-url", vehicle.url, "--heartbeat-s", "1", *extra,
             )  # fmt: skip
             stack.enter_context(_process(cmd, tmp_path / f"{drone_id}.log"))

@@ -81,3 +81,21 @@ def test_an_area_split_over_two_vehicles_flies_with_both_airborne(ground, fly):
     heights = highest_m(ground, mission["mission_id"])
     assert set(heights) == {"SITL_1", "SITL_2"}
     assert all(h > ALT_M - 2 for h in heights.values()), heights
+
+
+def test_an_onboard_step_mission_is_started_and_flown_by_ardupilot(ground, fly):
+    # Before: MISSION_START carried a first item, which Copter denies (GCS_MAVLink_Copter.cpp).
+    fly("SITL_1")
+    home = home_of(ground.drone("SITL_1"))
+    spec = {
+        "name": "on board",
+        "drones": ["SITL_1"],
+        "steps": step_mission(home, [(100, 0), (100, 100), (0, 100)]),
+        "options": {"onboard": True},
+    }
+    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
+    assert created.status_code == 201, created.text
+    mission = ground.wait_ended(created.json()["mission_id"])
+    assert mission["state"] == "completed", mission.get("error")
+    assert mission["waypoints_reached"] == mission["waypoints"] == 4
+    assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2

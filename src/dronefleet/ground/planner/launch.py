@@ -34,6 +34,9 @@ class MissionOptions(BaseModel):
     collaborators: int = Field(default=2, ge=0, le=10)
     max_expansions: int = Field(default=1, ge=0, le=10)
     strategy: Literal["ours", "seed"] = "ours"
+    # Fly each leg on board its autopilot (MAVLink AUTO) when its steps allow it (true), from
+    # the companion computer (false), or as each drone is configured (null).
+    onboard: bool | None = None
 
 
 class MissionSpec(BaseModel):

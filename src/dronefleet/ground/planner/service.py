@@ -189,7 +189,11 @@ class MissionPlanner:
             record.legs.append(leg)
         self._legs[leg.leg_id] = record.mission_id
         await self.save(record)
-        request = MissionRequest(mission_id=leg.leg_id, steps=leg.drone_steps(record.work))
+        request = MissionRequest(
+            mission_id=leg.leg_id,
+            steps=leg.drone_steps(record.work),
+            onboard=record.options.get("onboard"),
+        )
         await self.client.publish(
             topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
         )
