@@ -132,6 +132,9 @@ class DroneController:
             case Command.LAND:
                 await nav.land()
                 return {"landing": True}
+            case Command.RTL:
+                home = await nav.return_to_launch()
+                return {"returning": True, "home": {"lat": home.lat, "lon": home.lon}}
             case Command.NAVIGATE:
                 return _target(await nav.navigate(request.lat, request.lon, request.altitude_delta))
             case Command.CHANGE_N:

@@ -15,6 +15,8 @@ until the vehicle is :data:`SAFE_HEIGHT_M` up, then flies on at full speed (clim
 
 from __future__ import annotations
 
+import asyncio
+import logging
 from dataclasses import dataclass
 
 from dronefleet.clock import wait_until
@@ -22,9 +24,14 @@ from dronefleet.drone.fc.base import FcError, FlightController
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 
+log = logging.getLogger(__name__)
+
 #: Height above home a take-off must reach before a position target may follow it (metres); a
 #: lower take-off target lowers it to half that target.
 SAFE_HEIGHT_M = 2.0
+#: Height of the flight home for an RTL of a flight controller without its own (ArduPilot's
+#: RTL_ALT default, 15 m): higher if already higher.
+RTL_ALT_M = 15.0
 #: Longest a navigate waits for the take-off to reach that height (vehicle seconds): arming is
 #: done by then, and ArduPilot's climb starts within a second of NAV_TAKEOFF.
 TAKEOFF_WAIT_S = 30.0
@@ -63,11 +70,13 @@ class NavigationProcessor:
         self.goal: LLA | None = None
         self.landing = False  # after a land request, the goal is being on the ground
         self.takeoff_height_m: float | None = None  # the take-off climb in progress, if any
+        self._homing: asyncio.Task[None] | None = None  # our RTL's landing, once home
 
     # -- requests ----------------------------------------------------------------------------
     async def takeoff(self, altitude_m: float | None = None) -> LLA:
         height = self.takeoff_altitude_m if altitude_m is None else altitude_m
         self._check_height(height)
+        self._stop_homing()
         await self.fc.takeoff(height)
         self.landing = False
         self.takeoff_height_m = height
@@ -93,13 +102,52 @@ class NavigationProcessor:
         self._check_height(target.alt_m - home.alt_m)
         return await self._go(target)
 
+    async def return_to_launch(self) -> LLA:
+        """Fly home and land there: the autopilot's own RTL where it has one (ArduPilot: climb
+        to RTL_ALT, fly home, land), else the same here (:data:`RTL_ALT_M`). ``wait_for_flight``
+        then waits until the drone is down."""
+        home = self.fc.home()
+        self._stop_homing()
+        native = getattr(self.fc, "return_to_launch", None)
+        if native is not None:
+            await native()
+            self.goal, self.landing, self.takeoff_height_m = None, True, None
+            return home
+        if not self.fc.state().in_air:
+            await self.land()
+            return home
+        height = max(self._height_m(), RTL_ALT_M)
+        await self._go(LLA(home.lat, home.lon, home.alt_m + height))
+        self._homing = asyncio.create_task(self._land_when_home(), name="rtl")
+        self.landing = True  # what wait_for_flight waits for: on the ground, at home
+        return home
+
+    async def _land_when_home(self) -> None:
+        home = self.fc.home()
+        arrived = await wait_until(
+            self.fc.clock,
+            lambda: self.distance_to_goal_m() < self.tolerance.horizontal_m,
+            poll_s=0.1,
+        )
+        if arrived and self._homing is asyncio.current_task():
+            await self.fc.land()
+            self.goal = None
+            log.info("RTL: home at %.6f, %.6f, landing", home.lat, home.lon)
+
+    def _stop_homing(self) -> None:
+        task, self._homing = self._homing, None
+        if task is not None and not task.done() and task is not asyncio.current_task():
+            task.cancel()
+
     async def land(self) -> None:
+        self._stop_homing()
         await self.fc.land()
         self.goal = None
         self.takeoff_height_m = None
         self.landing = True
 
     async def hold(self) -> LLA:
+        self._stop_homing()
         here = self.fc.position()
         await self.fc.hold()
         self.goal = here
@@ -170,7 +218,9 @@ class NavigationProcessor:
         if not state.armed:
             raise FcError("vehicle is not armed: arm (and take off) before navigating")
         await self._airborne(target)
+        if self._homing is not None and target != self.goal:
+            self._stop_homing()  # a new destination ends an RTL of ours
         await self.fc.goto(target)
         self.goal = target
-        self.landing = False
+        self.landing = self._homing is not None and not self._homing.done()
         return target

@@ -29,6 +29,7 @@ class Command(StrEnum):
     ALTITUDE = "altitude"
     NAVIGATE = "navigate"
     LAND = "land"
+    RTL = "rtl"  # return to launch: home, then land (ArduPilot's RTL; ours where there is none)
     TAKEOFF = "takeoff"
     ARM = "arm"
     DISARM = "disarm"
@@ -88,6 +89,10 @@ class Navigate(_Request):
 
 class Land(_Request):
     command: Literal[Command.LAND]
+
+
+class Rtl(_Request):
+    command: Literal[Command.RTL]
 
 
 class Takeoff(_Request):
@@ -156,6 +161,7 @@ ControlRequest = Annotated[
     | Altitude
     | Navigate
     | Land
+    | Rtl
     | Takeoff
     | Arm
     | Disarm
@@ -171,6 +177,7 @@ MissionStep = Annotated[
     | Altitude
     | Navigate
     | Land
+    | Rtl
     | Takeoff
     | Arm
     | Disarm
@@ -192,6 +199,7 @@ CONTROL_COMMANDS = frozenset(
         Command.ALTITUDE,
         Command.NAVIGATE,
         Command.LAND,
+        Command.RTL,
         Command.TAKEOFF,
         Command.ARM,
         Command.DISARM,

@@ -7,9 +7,11 @@ and a two-vehicle split left both on the ground.
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
-from dronefleet.geo.ned import ned_to_lla
+from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 
 pytestmark = [pytest.mark.integration, pytest.mark.sitl]
@@ -99,3 +101,33 @@ def test_an_onboard_step_mission_is_started_and_flown_by_ardupilot(ground, fly):
     assert mission["state"] == "completed", mission.get("error")
     assert mission["waypoints_reached"] == mission["waypoints"] == 4
     assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2
+
+
+def test_an_operator_rtl_brings_the_copter_home_and_down(ground, fly):
+    fly("SITL_1")
+    home = home_of(ground.drone("SITL_1"))
+    spec = {
+        "name": "far away",
+        "drones": ["SITL_1"],
+        "steps": step_mission(home, [(150, 0), (150, 150)]),
+    }
+    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
+    assert created.status_code == 201, created.text
+    mission_id = created.json()["mission_id"]
+    for _ in range(120):  # until it is well on its way
+        drone = ground.drone("SITL_1")
+        if (drone.get("position") or {}).get("relative_alt_m", 0) > 10 and drone["step_index"]:
+            break
+        time.sleep(0.5)
+    assert ground.api("POST", f"/api/v1/missions/{mission_id}/stop").status_code == 200
+    answer = ground.api("POST", "/api/v1/drones/SITL_1/commands/rtl")
+    assert answer.status_code == 200, answer.text
+    for _ in range(240):
+        drone = ground.drone("SITL_1")
+        if drone.get("state") == "disarmed":
+            break
+        time.sleep(0.5)
+    assert drone["state"] == "disarmed" and drone["mode"] == "RTL"
+    here = drone["position"]
+    away = lla_to_ned(LLA(here["lat"], here["lon"], home.alt_m), home)
+    assert away.horizontal_m < 5.0 and here["relative_alt_m"] < 1.0
