@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import sys
 from pathlib import Path
 
@@ -139,13 +140,26 @@ async def _serve_autopilot(config, args: argparse.Namespace) -> int:
         print(f"dronefleet drone: --fc {args.fc} needs --fc-url", file=sys.stderr)
         return 2
     stop = stop_event()
-    try:
-        fc, sensors, camera = await open_flight_controller(args.fc, args.fc_url)
-    except (BackendUnavailable, FcError, OSError, TimeoutError) as exc:
-        print(
-            f"dronefleet drone: cannot reach the autopilot at {args.fc_url}: {exc}", file=sys.stderr
-        )
-        return 1
+    # A companion computer outlives its autopilot: wait for it with back-off, forever (until
+    # stopped), instead of exiting while the autopilot boots or is being replaced (issue 17).
+    delay_s = 1.0
+    while True:
+        try:
+            fc, sensors, camera = await open_flight_controller(args.fc, args.fc_url)
+            break
+        except (BackendUnavailable, FcError, OSError, TimeoutError) as exc:
+            print(
+                f"dronefleet drone: waiting for the autopilot at {args.fc_url}: {exc}; "
+                f"trying again in {delay_s:g} s",
+                file=sys.stderr,
+                flush=True,
+            )
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(delay_s):
+                await stop.wait()
+        if stop.is_set():
+            return 0
+        delay_s = min(delay_s * 2, 30.0)
     app = DroneApp(config, fc, args.broker, sensors=sensors, camera=camera)
     try:
         await app.start()

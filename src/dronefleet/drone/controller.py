@@ -198,6 +198,8 @@ class DroneController:
             mode=str(state.mode),
             mission_id=self.mission_id,
             step_index=self.step_index,
+            # A companion computer outlives its autopilot link (issue 17): the ground is told.
+            autopilot_link=bool(getattr(self.fc, "connected", True)),
         )
 
     async def _heartbeats(self) -> None:

@@ -25,7 +25,9 @@ _SMOOTHING = 0.3
 
 class DroneStatus(StrEnum):
     ONLINE = "online"
-    LOST = "lost"
+    LOST = "lost"  # no heartbeat for 3 intervals
+    # Heartbeats arrive, but the drone cannot reach its autopilot: not flyable, not lost either.
+    AUTOPILOT_LINK_LOST = "autopilot link lost"
 
 
 class LenientHeartbeat(Heartbeat):
@@ -58,6 +60,7 @@ class DroneRecord(BaseModel):
             last_seen=now,
             heartbeat_interval_s=max(hb.interval_s, 0.01),
             heartbeat=hb.model_dump(mode="json", exclude_none=True),
+            status=DroneStatus.ONLINE if hb.autopilot_link else DroneStatus.AUTOPILOT_LINK_LOST,
             status_changed=now,
         )
 
@@ -73,8 +76,9 @@ class DroneRecord(BaseModel):
                 self.heartbeat_interval_s += _SMOOTHING * (gap - self.heartbeat_interval_s)
         self.last_seen = now
         self.heartbeat = hb.model_dump(mode="json", exclude_none=True)
-        if came_back:
-            self.status = DroneStatus.ONLINE
+        status = DroneStatus.ONLINE if hb.autopilot_link else DroneStatus.AUTOPILOT_LINK_LOST
+        if status is not self.status:
+            self.status = status
             self.status_changed = now
         return came_back
 

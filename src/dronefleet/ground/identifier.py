@@ -58,7 +58,7 @@ class DroneIdentifier:
             with contextlib.suppress(ValueError):
                 record = DroneRecord.model_validate(data)
                 # After a ground restart give every drone 3 intervals to be heard again.
-                if record.status is DroneStatus.ONLINE:
+                if record.status is not DroneStatus.LOST:
                     record.last_seen = max(record.last_seen, started)
                 self.fleet[record.drone_id] = record
         await self.client.subscribe(
@@ -98,9 +98,15 @@ class DroneIdentifier:
             record = self.fleet[hb.drone_id] = DroneRecord.first(hb, now)
             log.info("drone %s joined the fleet", hb.drone_id)
             await self._announce(record, "new")
-        elif record.observe(hb, now):
-            log.info("drone %s is online again", hb.drone_id)
-            await self._announce(record, "online")
+        else:
+            before = record.status
+            came_back = record.observe(hb, now)
+            if record.status is DroneStatus.AUTOPILOT_LINK_LOST and before is not record.status:
+                log.warning("drone %s: its autopilot link is lost", hb.drone_id)
+                await self._announce(record, "autopilot_link_lost")
+            elif came_back or before is DroneStatus.AUTOPILOT_LINK_LOST:
+                log.info("drone %s is online again", hb.drone_id)
+                await self._announce(record, "online")
         self._dirty.add(hb.drone_id)
         if record.specs is None or record.sensors is None:
             self._maybe_ask_gear(hb.drone_id, now)
@@ -110,7 +116,7 @@ class DroneIdentifier:
             await asyncio.sleep(0.05)
             now = timestamp_s()
             for record in list(self.fleet.values()):
-                if record.status is DroneStatus.ONLINE and now > record.deadline():
+                if record.status is not DroneStatus.LOST and now > record.deadline():
                     record.status = DroneStatus.LOST
                     record.status_changed = now
                     self._dirty.add(record.drone_id)

@@ -41,6 +41,9 @@ class Heartbeat(Message):
     mode: str
     mission_id: str | None = None
     step_index: int | None = None
+    autopilot_link: bool = Field(
+        default=True, description="the drone's link to its flight controller is up"
+    )
 
 
 class Alarm(Message):

@@ -96,6 +96,7 @@ class Vehicle:
     instance: int
     folder: Path
     proc: subprocess.Popen[bytes]
+    cmd: list[str]
 
     @property
     def url(self) -> str:
@@ -105,6 +106,12 @@ class Vehicle:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
+
+    def restart(self) -> None:
+        """Start the same vehicle again (same folder, instance and parameters)."""
+        self.kill()
+        log = open(self.folder / "sitl.log", "ab")  # noqa: SIM115 - closed with the process
+        self.proc = subprocess.Popen(self.cmd, cwd=self.folder, stdout=log, stderr=log)
 
 
 def _start_sitl(
@@ -131,7 +138,7 @@ def _start_sitl(
         if b"Waiting for connection" in (folder / "sitl.log").read_bytes():
             break
         time.sleep(0.1)
-    return Vehicle(instance, folder, proc)
+    return Vehicle(instance, folder, proc, cmd)
 
 
 @contextlib.contextmanager

@@ -28,6 +28,16 @@ def test_lost_after_three_observed_intervals_and_online_on_the_next():
     assert record.heartbeat_interval_s == pytest.approx(0.5)  # the outage gap is not a rate
 
 
+def test_a_drone_that_cannot_reach_its_autopilot_is_shown_so_not_lost():
+    record = DroneRecord.first(hb(), now=100.0)
+    cut = LenientHeartbeat.model_validate({**hb().model_dump(), "autopilot_link": False})
+    record.observe(cut, now=105.0)
+    assert record.status is DroneStatus.AUTOPILOT_LINK_LOST
+    assert record.public()["status"] == "autopilot link lost"
+    record.observe(hb(), now=110.0)
+    assert record.status is DroneStatus.ONLINE
+
+
 async def test_the_fleet_is_kept_and_answered_over_the_broker(broker, tmp_path):
     state = await StateStore(tmp_path / "g.db").open()
     identifier = await DroneIdentifier(broker, state, client_id="id-test").start()

@@ -49,7 +49,8 @@ export class Fleet extends EventTarget {
     const id = msg.drone_id;
     const data = msg.data || {};
     if (msg.kind === "heartbeat" && id) {
-      this.merge(id, { ...data, status: "online", seen_ago_s: 0, last_seen: data.timestamp });
+      const status = data.autopilot_link === false ? "autopilot link lost" : "online";
+      this.merge(id, { ...data, status, seen_ago_s: 0, last_seen: data.timestamp });
       this.changed();
     } else if (msg.kind === "telemetry" && id && this.drones.has(id)) {
       const f = data.fields || {};
@@ -58,7 +59,7 @@ export class Fleet extends EventTarget {
       this.merge(id, { alarm: { level: data.level || "ALARM", message: data.message || "", at: Date.now() / 1000 } });
       this.changed();
     } else if (msg.kind === "fleet" && id) {
-      const status = data.event === "lost" ? "lost" : "online";
+      const status = data.event === "lost" ? "lost" : data.event === "autopilot_link_lost" ? "autopilot link lost" : "online";
       this.merge(id, { ...(data.drone || {}), status });
       this.changed();
     }

@@ -20,7 +20,7 @@ export async function mount(root, ctx) {
     const drones = ctx.fleet.list();
     body.replaceChildren(...drones.map((d) => el("tr", { "data-drone": d.drone_id, "data-status": d.status || "", "data-alarm": d.alarm ? d.alarm.level : "", class: d.status === "lost" ? "lost" : "" },
       el("th", { scope: "row" }, el("span", { class: "dot", style: `background:${stateColor(d)}` }), d.drone_id),
-      el("td", { class: "state" }, d.status === "lost" ? "LOST" : d.state || "—"),
+      el("td", { class: "state" }, d.status === "lost" ? "LOST" : d.status === "autopilot link lost" ? "AUTOPILOT LINK LOST" : d.state || "—"),
       el("td", {}, d.battery ? `${d.battery.remaining_pct.toFixed(0)} %` : "—"),
       el("td", {}, d.mode || "—"),
       el("td", {}, d.mission_id || "—"),
