@@ -1,4 +1,4 @@
-"""One clock for all waiting (DESIGN.md §4).
+"""One clock for all waiting (docs/DESIGN.md §4).
 
 Drone-side code takes its time from the vehicle it flies: a simulated vehicle's sim clock, or an
 autopilot's boot time. Ground code uses the event loop's time. Both implement :class:`Clock`.

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-#: The seed's flights (chapter 5) and the bounds of DESIGN.md §10, in vehicle seconds.
+#: The seed's flights (chapter 5) and the bounds of docs/DESIGN.md §10, in vehicle seconds.
 SEED = {"panic": 25.0, "survey": 331.0, "replacement": None, "collab": 154.0}
 BOUND = {"panic": 17.0, "survey": 76.0, "replacement": 16.8, "collab": 107.0}
 TARGET = {

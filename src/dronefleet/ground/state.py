@@ -1,4 +1,5 @@
-"""The ground state store (DESIGN.md §7): drones seen, API tokens, the audit log of every command.
+"""The ground state store (docs/DESIGN.md §7): drones seen, API tokens, the audit log of every
+command.
 
 SQLite in WAL mode, used from one worker thread so the event loop never blocks on disk. The
 Drone Identifier keeps its fleet here so a restart remembers it; the Drone Manager keeps tokens

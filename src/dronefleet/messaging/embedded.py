@@ -1,7 +1,7 @@
 """An in-process MQTT broker (amqtt) on a free loopback port: the embedded default.
 
 ``dronefleet demo`` and the tests use it so that nothing needs a system service. Real deployments
-use Mosquitto or RabbitMQ (DESIGN.md §9).
+use Mosquitto or RabbitMQ (docs/DESIGN.md §9).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Broker URLs: ``mqtt://user:pass@host:port`` chooses the broker (DESIGN.md §3)."""
+"""Broker URLs: ``mqtt://user:pass@host:port`` chooses the broker (docs/DESIGN.md §3)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Simulated vehicles for dronefleet: kinematics, battery, GPS, wind, gas field, camera and the
-sim clock, all driven by one :class:`SimWorld` loop (DESIGN.md §2, §5)."""
+sim clock, all driven by one :class:`SimWorld` loop (docs/DESIGN.md §2, §5)."""
 
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.clock import SimClock

@@ -5,8 +5,8 @@ profile, horizontal and vertical separately (as ArduPilot's WPNAV does): it acce
 ``accel_mps2``, cruises at the speed limit and brakes so that it stops on the target. The
 horizontal profile runs along the straight line to the target, so a goto from hover is a straight
 line. Limits default to the seed's: 10 m/s horizontal, 2 m/s climb (section 5.1), 2.5 m/s²
-(DESIGN.md §10). Everything here is in local NED metres of the vehicle's home; the ground is the
-plane D = 0.
+(docs/DESIGN.md §10). Everything here is in local NED metres of the vehicle's home; the ground is
+the plane D = 0.
 """
 
 from __future__ import annotations

@@ -129,7 +129,7 @@ def test_the_seed_survey_takes_as_long_as_the_estimate_says(origin, rect, fly_th
     assert est.duration_s == pytest.approx(sim_s, rel=0.03)
     assert est.energy_mah == pytest.approx(sim_mah, rel=0.03)
     assert est.battery_end_pct == pytest.approx(vehicle.battery.remaining_pct, abs=0.5)
-    if fly_through:  # DESIGN.md §10: 76 s kinematic bound photographing on the fly
+    if fly_through:  # docs/DESIGN.md §10: 76 s kinematic bound photographing on the fly
         assert sim_s <= 1.2 * 76
 
 

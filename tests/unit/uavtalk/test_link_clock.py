@@ -1,4 +1,4 @@
-"""The vehicle clock of a UAVTalk autopilot follows SystemStats.FlightTime (DESIGN.md section 4)."""
+"""The vehicle clock of a UAVTalk autopilot follows SystemStats.FlightTime (docs/DESIGN.md §4)."""
 
 from __future__ import annotations
 

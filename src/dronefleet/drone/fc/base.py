@@ -1,4 +1,4 @@
-"""The one contract every flight-controller backend fulfils (DESIGN.md §5).
+"""The one contract every flight-controller backend fulfils (docs/DESIGN.md §5).
 
 The Drone Controller, Mission Worker and Arming Switch call only this; they never know whether the
 vehicle is simulated in-process, an ArduPilot over MAVLink or a dRonin over UAVTalk. State getters

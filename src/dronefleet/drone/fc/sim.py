@@ -1,7 +1,7 @@
 """The ``sim`` flight-controller backend: the FlightController protocol over an in-process
 :class:`~dronefleet.sim.vehicle.SimVehicle`.
 
-This is what the Drone Controller talks to when no real autopilot is attached (DESIGN.md §5).
+This is what the Drone Controller talks to when no real autopilot is attached (docs/DESIGN.md §5).
 Commands go straight to the vehicle; waiting (arming, reboot, telemetry rate) is on the sim clock,
 so it runs as fast as the :class:`~dronefleet.sim.world.SimWorld` loop drives it. Raw object
 requests answer with dRonin UAVObject names (the seed's Flight Controller, section 4.1.2.1).

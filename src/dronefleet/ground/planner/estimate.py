@@ -32,7 +32,7 @@ _DESCENT = 1.0 - _B.flight_current_a(0.0, -1.0, 1.0) / _B.hover_current_a
 
 @dataclass(frozen=True)
 class VehicleModel:
-    """The limits and currents of a vehicle (defaults: the simulated quad of DESIGN.md §5)."""
+    """The limits and currents of a vehicle (defaults: the simulated quad of docs/DESIGN.md §5)."""
 
     max_speed_mps: float = 10.0
     max_climb_mps: float = 2.0

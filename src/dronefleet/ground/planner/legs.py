@@ -2,7 +2,7 @@
 
 Two strategies: ``ours`` climbs while flying (navigate straight after take-off, the vehicle climbs
 and flies at once) and ``seed`` does it the dissertation's way (arm, take off, wait until at
-altitude, then fly). Both reach the same waypoints; ours is faster (DESIGN.md §10).
+altitude, then fly). Both reach the same waypoints; ours is faster (docs/DESIGN.md §10).
 """
 
 from __future__ import annotations

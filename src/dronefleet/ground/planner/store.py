@@ -1,4 +1,4 @@
-"""Durable mission state (DESIGN.md §7): every mission record and every mission log.
+"""Durable mission state (docs/DESIGN.md §7): every mission record and every mission log.
 
 Kept in the ground state store's SQLite file, so restarting the planner mid-mission loses nothing:
 the records are reloaded and tracking carries on.

@@ -1,5 +1,5 @@
 """``dronefleet sim``'s MAVLink server: many simulated Copters in one :class:`SimWorld`, each on
-its own UDP port and system id, so a fleet flies over real MAVLink bytes (DESIGN.md §5, §9).
+its own UDP port and system id, so a fleet flies over real MAVLink bytes (docs/DESIGN.md §5, §9).
 
 Vehicle ``i`` (0-based) has system id ``first_system_id + i`` and listens on ``base_port + i``.
 One task on the sim clock updates every vehicle's mode logic and telemetry each physics step.

@@ -1,4 +1,4 @@
-"""The autopilot's clock (DESIGN.md §4): vehicle seconds from MAVLink ``time_boot_ms``.
+"""The autopilot's clock (docs/DESIGN.md §4): vehicle seconds from MAVLink ``time_boot_ms``.
 
 Drone-side waiting (mission ``sleep`` steps, heartbeats, telemetry) must run on the vehicle's time
 so that a simulation sped up 20 times still reports its durations in vehicle seconds. The autopilot

@@ -4,7 +4,8 @@ pymavlink's generated ``ardupilotmega`` dialect (a superset of ``common``) does 
 module fixes how we use it on both ends of the link — the drone's MAVLink backend and the
 simulator's vehicle endpoint: one :class:`Encoder` per sender (sequence numbers, our system and
 component ids) and one :class:`FrameDecoder` per receiver that never raises on bad input. Corrupt,
-truncated or random bytes are counted and dropped; a component never dies on input (DESIGN.md §3).
+truncated or random bytes are counted and dropped; a component never dies on input
+(docs/DESIGN.md §3).
 """
 
 from __future__ import annotations

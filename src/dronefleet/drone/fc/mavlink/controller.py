@@ -1,5 +1,5 @@
 """The ``mavlink`` flight-controller backend: the FlightController protocol over MAVLink
-(Flight Controller Interface, seed 3.3.2.2 / 4.1.2.1; DESIGN.md §5).
+(Flight Controller Interface, seed 3.3.2.2 / 4.1.2.1; docs/DESIGN.md §5).
 
 ArduPilot Copter semantics: commands fly in GUIDED — arming with MAV_CMD_COMPONENT_ARM_DISARM,
 MAV_CMD_NAV_TAKEOFF (altitude above home), SET_POSITION_TARGET_GLOBAL_INT position targets — and

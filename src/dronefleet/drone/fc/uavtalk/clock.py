@@ -1,4 +1,4 @@
-"""The vehicle clock of a UAVTalk flight controller (DESIGN.md section 4).
+"""The vehicle clock of a UAVTalk flight controller (docs/DESIGN.md §4).
 
 Drone-side code takes its time from the vehicle: here the autopilot's time since boot, which the
 flight side sends in ``SystemStats.FlightTime`` ten times a second. Between samples the clock runs
