@@ -203,13 +203,19 @@ def ground_stack(folder: Path) -> Iterator[Ground]:
         )  # fmt: skip
         with process(cmd, folder / "ground.log"):
             url = f"http://127.0.0.1:{port}"
-            deadline = time.monotonic() + 30
-            while time.monotonic() < deadline:
-                with contextlib.suppress(httpx.HTTPError):
-                    if httpx.get(f"{url}/api/v1/health", timeout=1).status_code == 200:
-                        break
+            deadline = time.monotonic() + 60
+            while not _healthy(url):
+                if time.monotonic() > deadline:
+                    log = (folder / "ground.log").read_text(errors="replace")[-1500:]
+                    raise TimeoutError(f"dronefleet ground not up at {url}; its log ends:\n{log}")
                 time.sleep(0.2)
             yield Ground(url, str(broker), folder)
+
+
+def _healthy(url: str) -> bool:
+    with contextlib.suppress(httpx.HTTPError):
+        return httpx.get(f"{url}/api/v1/health", timeout=1).status_code == 200
+    return False
 
 
 def fly_drone(
