@@ -133,6 +133,20 @@ async def test_a_mission_is_created_flown_logged_and_listed(platform):
     assert [m["mission_id"] for m in listed] == [mission_id]
 
 
+async def test_a_mission_created_without_starting_starts_later(platform):
+    # It answered 500: the record's options carried a key its model forbids (issue 11).
+    op, _ = platform
+    r = await op.post("/api/v1/missions", json={"drones": ["FULL"], "area": area()})
+    assert r.status_code == 201, r.text
+    mission_id = r.json()["mission_id"]
+    assert r.json()["state"] == "planned"
+    started = await op.post(f"/api/v1/missions/{mission_id}/start")
+    assert started.status_code == 200, started.text
+    assert started.json()["state"] == "running"
+    done = await until_state(op, mission_id, {"completed", "failed"})
+    assert done["state"] == "completed", done
+
+
 async def test_stopping_a_mission_and_calling_a_drone(platform):
     op, _ = platform
     r = await op.post(

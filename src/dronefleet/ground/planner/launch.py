@@ -231,11 +231,12 @@ async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
     record = planner.get(mission_id)
     if record.state is not MissionState.PLANNED:
         raise PlannerError(f"mission {mission_id} is {record.state.value}, not planned", status=409)
+    options = {k: v for k, v in record.options.items() if k != "custom_steps"}  # record-only
     spec = MissionSpec(
         drones=record.drones,
         steps=record.work if record.options.get("custom_steps", True) else None,
         area=AreaSpec.model_validate(record.area) if record.area else None,
-        options=record.options,
+        options=MissionOptions.model_validate(options),
     )
     work, plan = work_of(spec)
     record.work = work
