@@ -13,6 +13,8 @@ import contextlib
 import logging
 from typing import Any
 
+from pydantic import ValidationError
+
 from dronefleet.clock import monotonic
 from dronefleet.drone.arming import ArmingSwitch
 from dronefleet.drone.camera_trigger import CameraTrigger
@@ -26,7 +28,7 @@ from dronefleet.messaging.codec import MessageError, decode, decode_object
 from dronefleet.messaging.commands import Command, CommandResponse, parse_control
 from dronefleet.messaging.gear import GearQuery, GearRequest
 from dronefleet.messaging.rpc import Requester, RequestTimeout
-from dronefleet.messaging.status import BatteryStatus, Heartbeat, Telemetry
+from dronefleet.messaging.status import BatteryStatus, FlightParams, Heartbeat, Telemetry
 from dronefleet.messaging.topics import Channel, Direction
 
 log = logging.getLogger(__name__)
@@ -58,6 +60,7 @@ class DroneController:
         self.step_index: int | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._telemetry_task: asyncio.Task[None] | None = None
+        self._flight_current_a: float | None = None  # measured in flight (heartbeats)
         self._events: list[Any] = []  # listeners of local events (the Logger)
 
     def topic(self, channel: Channel, direction: Direction = Direction.OUT) -> str:
@@ -200,7 +203,23 @@ class DroneController:
             step_index=self.step_index,
             # A companion computer outlives its autopilot link (issue 17): the ground is told.
             autopilot_link=bool(getattr(self.fc, "connected", True)),
+            flight=self._flight_params(battery.current_a, state.in_air),
         )
+
+    def _flight_params(self, current_a: float | None, in_air: bool) -> FlightParams | None:
+        """The vehicle's figures for the planner, with the current it draws in flight measured
+        here (a running mean over heartbeats in the air)."""
+        if in_air and current_a is not None and current_a > 0:
+            mean = self._flight_current_a
+            self._flight_current_a = current_a if mean is None else mean + 0.2 * (current_a - mean)
+        read = getattr(self.fc, "flight_params", None)
+        params = dict(read()) if read is not None else {}
+        if self._flight_current_a is not None:
+            params["flight_current_a"] = round(self._flight_current_a, 2)
+        try:
+            return FlightParams(**params) if params else None
+        except ValidationError:
+            return None
 
     async def _heartbeats(self) -> None:
         topic_name = self.topic(Channel.HEARTBEATS)

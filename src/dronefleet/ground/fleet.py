@@ -112,6 +112,7 @@ class DroneRecord(BaseModel):
             "mode": hb.get("mode"),
             "mission_id": hb.get("mission_id"),
             "step_index": hb.get("step_index"),
+            "flight": hb.get("flight"),
             "vehicle_time_s": hb.get("vehicle_time_s"),
             "specs": self.specs,
             "sensors": self.sensors,

@@ -27,6 +27,21 @@ class BatteryStatus(Message):
     consumed_mah: float | None = None
 
 
+class FlightParams(Message):
+    """How this vehicle flies, for the planner's time and battery estimates (issue 17): its
+    autopilot's settings (ArduPilot: WPNAV_SPEED, WPNAV_ACCEL, WPNAV_SPEED_UP/DN, LAND_SPEED,
+    LAND_ALT_LOW, BATT_CAPACITY) and the current it was measured to draw in flight."""
+
+    speed_mps: float | None = Field(default=None, gt=0, le=50)
+    accel_mps2: float | None = Field(default=None, gt=0, le=20)
+    climb_mps: float | None = Field(default=None, gt=0, le=20)
+    descent_mps: float | None = Field(default=None, gt=0, le=20)
+    land_speed_mps: float | None = Field(default=None, gt=0, le=20)
+    land_alt_low_m: float | None = Field(default=None, ge=0, le=100)
+    capacity_mah: float | None = Field(default=None, gt=0, le=1_000_000)
+    flight_current_a: float | None = Field(default=None, gt=0, le=1000)
+
+
 class Heartbeat(Message):
     """Sent every 5 s (vehicle time) on ``<id>/heartbeats/out``."""
 
@@ -44,6 +59,7 @@ class Heartbeat(Message):
     autopilot_link: bool = Field(
         default=True, description="the drone's link to its flight controller is up"
     )
+    flight: FlightParams | None = None
 
 
 class Alarm(Message):

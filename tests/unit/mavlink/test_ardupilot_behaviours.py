@@ -112,3 +112,20 @@ def test_a_camera_command_without_a_camera_fails_and_with_one_is_taken():
     copter = make(camera=True)
     assert command(copter, mav.MAV_CMD_IMAGE_START_CAPTURE, 0, 0, 1, 1) == mav.MAV_RESULT_ACCEPTED
     assert copter.picture_count == 1
+
+
+def test_landing_from_10_m_takes_ardupilots_time_and_ends_disarmed():
+    # Down to LAND_ALT_LOW (10 m) at WPNAV_SPEED_DN, then LAND_SPEED 0.5 m/s: ~20 s from 10 m.
+    copter = make()
+    copter.set_mode(CopterMode.GUIDED)
+    copter.arm()
+    copter.takeoff(10)
+    run(copter, 10)
+    assert copter.vehicle.relative_alt_m == pytest.approx(10, abs=0.3)
+    copter.set_mode(CopterMode.LAND)
+    seconds = 0.0
+    while copter.vehicle.in_air and seconds < 60:
+        run(copter, 0.05)
+        seconds += 0.05
+    assert 15 <= seconds <= 25
+    assert not copter.vehicle.armed

@@ -90,6 +90,17 @@ class SimFlightController:
             )
         self.vehicle.goto(lla_to_ned(target, home))
 
+    def flight_params(self) -> dict[str, float]:
+        """How the simulated vehicle flies (for the planner's estimates)."""
+        limits, battery = self.vehicle.limits, self.vehicle.battery
+        return {
+            "speed_mps": limits.max_speed_mps,
+            "accel_mps2": limits.accel_mps2,
+            "climb_mps": limits.max_climb_mps,
+            "descent_mps": limits.max_descent_mps,
+            "capacity_mah": battery.capacity_mah,
+        }
+
     async def hold(self) -> None:
         self.vehicle.hold()
 

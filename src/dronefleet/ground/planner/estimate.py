@@ -49,6 +49,35 @@ class VehicleModel:
     takeoff_altitude_m: float = 10.0
     picture_s: float = 0.1  # a picture taken while stopped (gear round trip)
     poll_s: float = 0.05  # the Mission Worker's wait_for_flight polling
+    # ArduPilot lands in two stages: down to LAND_ALT_LOW at WPNAV_SPEED_DN, then LAND_SPEED.
+    land_speed_mps: float | None = None
+    land_alt_low_m: float = 0.0
+
+    @classmethod
+    def of_vehicle(cls, params: dict[str, Any] | None, base: VehicleModel | None = None) -> Any:
+        """This model with what a drone reported of its vehicle (``Heartbeat.flight``): its
+        autopilot's speeds, accelerations, landing and capacity, and its measured flight draw."""
+        model = base or cls()
+        if not params:
+            return model
+        mapping = {
+            "speed_mps": "max_speed_mps",
+            "accel_mps2": "accel_mps2",
+            "climb_mps": "max_climb_mps",
+            "descent_mps": "max_descent_mps",
+            "land_speed_mps": "land_speed_mps",
+            "land_alt_low_m": "land_alt_low_m",
+            "capacity_mah": "capacity_mah",
+            "flight_current_a": "hover_current_a",
+        }
+        changes = {
+            ours: float(params[theirs])
+            for theirs, ours in mapping.items()
+            if isinstance(params.get(theirs), int | float) and params[theirs] > 0
+        }
+        if "accel_mps2" in changes:
+            changes["accel_z_mps2"] = changes["accel_mps2"]
+        return replace(model, **changes)
 
     @property
     def limits(self) -> FlightLimits:
@@ -159,6 +188,7 @@ class _State:
     armed: bool = False
     in_air: bool = False
     landing: bool = False
+    land_extra_s: float = 0.0  # the slow last stage of a landing, beyond the profile
     charge_as: float = 0.0  # ampere-seconds drawn
     notes: list[str] = field(default_factory=list)
 
@@ -215,8 +245,15 @@ class _State:
             ) * duration
             return
         vp = self._vertical_profile()
-        touchdown = self.landing and vp is not None and vp[0].duration <= duration
-        flying = vp[0].duration if touchdown and vp is not None else duration
+        slow = 0.0  # time in the slow last stage of a landing (drawn as hovering)
+        if self.landing and vp is not None:
+            total = vp[0].duration + self.land_extra_s
+            touchdown = total <= duration
+            flying = min(duration, vp[0].duration)
+            slow = min(duration, total) - flying
+            self.land_extra_s -= slow
+        else:
+            touchdown, flying = False, duration
         _, v2 = self._horizontal(flying)
         climb = 0.0
         if vp is not None:
@@ -226,20 +263,21 @@ class _State:
             self.vz = sign * v
             climb = sign * x
         hover = m.hover_current_a
-        self.charge_as += hover * flying + hover * _FORWARD * v2 / m.max_speed_mps**2
+        self.charge_as += hover * (flying + slow) + hover * _FORWARD * v2 / m.max_speed_mps**2
         self.charge_as += hover * (_CLIMB * climb if climb > 0 else _DESCENT * climb)
         if touchdown:  # on the ground: the vehicle disarms itself
             self.h = self.vz = self.vn = self.ve = 0.0
             self.in_air = self.armed = self.landing = False
             self.target = self.target_h = None
-            self.charge_as += m.idle_current_a * (duration - flying)
+            self.land_extra_s = 0.0
+            self.charge_as += m.idle_current_a * (duration - flying - slow)
 
     def wait_time(self, step: dict[str, Any]) -> float:
         """Seconds until the goal is reached (Algorithm 1), on the worker's polling grid."""
         m = self.model
         if self.landing:
             vp = self._vertical_profile()
-            t = vp[0].duration if vp else 0.0
+            t = vp[0].duration + self.land_extra_s if vp else 0.0
         else:
             tol_h = step.get("horizontal_tolerance_m") or m.horizontal_tolerance_m
             tol_v = step.get("vertical_tolerance_m") or m.vertical_tolerance_m
@@ -289,6 +327,9 @@ class _State:
             self.go(n, e, h + (value if command == "altitude" else 0.0), command)
         elif command == "land" and self.in_air:
             self.target, self.target_h, self.landing = self.stop_point(), 0.0, True
+            if m.land_speed_mps and m.land_speed_mps < m.max_descent_mps:
+                low = min(self.h, m.land_alt_low_m)
+                self.land_extra_s = low / m.land_speed_mps - low / m.max_descent_mps
         elif command == "disarm" and not self.in_air:
             self.armed = False
         elif command == "wait_for_flight":

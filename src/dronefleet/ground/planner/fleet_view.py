@@ -29,6 +29,7 @@ class DroneView:
     position: LLA
     home: LLA
     battery_pct: float
+    flight: dict[str, Any] | None = None  # how its vehicle flies (Heartbeat.flight)
 
     @property
     def airborne(self) -> bool:
@@ -51,6 +52,7 @@ class DroneView:
             position=LLA(pos["lat"], pos["lon"], pos.get("alt_m", 0.0)),
             home=LLA(home["lat"], home["lon"], home.get("alt_m", 0.0)),
             battery_pct=float(battery.get("remaining_pct", 0.0)),
+            flight=d.get("flight") if isinstance(d.get("flight"), dict) else None,
         )
 
 

@@ -15,7 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner import allocation
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area
-from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.estimate import VehicleModel, can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
@@ -146,6 +146,7 @@ async def assign(
             home=drone.home,
             airborne=drone.airborne,
             battery_pct=drone.battery_pct,
+            model=VehicleModel.of_vehicle(drone.flight),  # its own autopilot's figures
         )
         ok, why = can_finish(est, reserve_pct=planner.reserve_pct)
         if not ok and not _relief_exists(spec, fleet, busy, chosen, est):

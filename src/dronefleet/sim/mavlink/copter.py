@@ -14,7 +14,9 @@ What ArduPilot does that a forgiving simulator would not (issue 17; ArduPilot up
   ``ModeGuided::set_destination`` and ``wp_control_run``): the vehicle stays down;
 - armed, on the ground and idle for DISARM_DELAY seconds, it disarms
   (ArduCopter/motors.cpp, ``Copter::auto_disarm_check``);
-- AUTO on the ground does not start the mission until MISSION_START (``auto_armed``).
+- AUTO on the ground does not start the mission until MISSION_START (``auto_armed``);
+- a landing descends at WPNAV_SPEED_DN down to LAND_ALT_LOW, then at LAND_SPEED
+  (ArduCopter/land_detector and mode_land: ``get_land_descent_speed``), so 10 m take ~20 s.
 """
 
 from __future__ import annotations
@@ -249,7 +251,17 @@ class SimCopter:
             if v.armed and self.auto_armed and not self.runner.running and not self.runner.finished:
                 self.runner.start()
             self.runner.update()
+        self._land_speed()
         self._auto_disarm()
+
+    def _land_speed(self) -> None:
+        v = self.vehicle
+        fast = self.params.get("WPNAV_SPEED_DN") / 100.0
+        slow = self.params.get("LAND_SPEED") / 100.0
+        low = v.landing and v.relative_alt_m < self.params.get("LAND_ALT_LOW") / 100.0
+        descent = slow if low and slow > 0 else fast
+        if fast > 0 and v.limits.max_descent_mps != descent:
+            v.limits = replace(v.limits, max_descent_mps=descent)
 
     def _auto_disarm(self) -> None:
         v = self.vehicle

@@ -26,7 +26,8 @@ DEFAULTS: dict[str, tuple[float, int]] = {
     "WPNAV_ACCEL": (250, _REAL32),
     "WPNAV_RADIUS": (200, _REAL32),
     "RTL_ALT": (1500, _INT32),
-    "LAND_SPEED": (50, _INT32),
+    "LAND_SPEED": (50, _INT32),  # cm/s below LAND_ALT_LOW
+    "LAND_ALT_LOW": (1000, _INT32),  # cm: above it a landing descends at WPNAV_SPEED_DN
     "DISARM_DELAY": (10, _INT32),  # s on the ground, armed and idle, before an auto-disarm
     "BATT_MONITOR": (4, _INT32),
     "BATT_CAPACITY": (5500, _INT32),

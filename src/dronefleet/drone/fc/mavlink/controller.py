@@ -52,6 +52,18 @@ DEFAULT_STREAMS_HZ = {
     "POSITION_TARGET_GLOBAL_INT": 4.0,
 }
 MIN_TARGET_ALT_M = 0.5
+#: Autopilot parameters read on connect for the planner's estimates (ArduPilot Copter's names;
+#: speeds in cm/s, accelerations in cm/s², altitudes in cm, capacity in mAh).
+FLIGHT_PARAMS = (
+    "WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_SPEED_UP", "WPNAV_SPEED_DN",
+    "LAND_SPEED", "LAND_ALT_LOW", "BATT_CAPACITY",
+)  # fmt: skip
+_FLIGHT_PARAM_UNITS = (
+    ("speed_mps", "WPNAV_SPEED", 0.01), ("accel_mps2", "WPNAV_ACCEL", 0.01),
+    ("climb_mps", "WPNAV_SPEED_UP", 0.01), ("descent_mps", "WPNAV_SPEED_DN", 0.01),
+    ("land_speed_mps", "LAND_SPEED", 0.01), ("land_alt_low_m", "LAND_ALT_LOW", 0.01),
+    ("capacity_mah", "BATT_CAPACITY", 1.0),
+)  # fmt: skip
 #: ArduPilot's "really" values: disarm in flight, reboot while armed.
 FORCE_DISARM_MAGIC = 21196
 FORCE_REBOOT_MAGIC = 20190226
@@ -99,6 +111,7 @@ class MavlinkFlightController(VehicleView):
         self._connected = False
         self._closed = False
         self._capacity_mah = 0.0
+        self.params: dict[str, float] = {}  # FLIGHT_PARAMS as the autopilot answered them
         self._background: set[asyncio.Task[Any]] = set()
         self.link.add_listener(self._on_message)
         self.link.on_link_change(self._on_link_change)
@@ -129,8 +142,8 @@ class MavlinkFlightController(VehicleView):
             self.autopilot = self.mission.autopilot = Autopilot.from_heartbeat(beat.autopilot)
             await self.request_streams()
             await session.learn_home(self.commands)
-            capacity = await session.read_param(self.link, "BATT_CAPACITY")
-            self._capacity_mah = capacity or 0.0
+            self.params = await session.read_params(self.link, FLIGHT_PARAMS)
+            self._capacity_mah = self.params.get("BATT_CAPACITY") or 0.0
         except BaseException:
             await self.link.close()
             raise
@@ -299,6 +312,14 @@ class MavlinkFlightController(VehicleView):
             reason = self.link.reason_since(sent_at)
             if reason:
                 raise FcError(f"{self._name()}: position target refused: {reason}")
+
+    def flight_params(self) -> dict[str, float]:
+        """How this vehicle flies, from its parameters (SI units; for the planner)."""
+        p, out = self.params, {}
+        for key, name, scale in _FLIGHT_PARAM_UNITS:
+            if p.get(name):
+                out[key] = p[name] * scale
+        return out
 
     async def hold(self) -> None:
         if not self.state().in_air:

@@ -66,3 +66,15 @@ async def read_param(link: MavlinkLink, name: str, timeout_s: float = 1.0) -> fl
     )
     answer = await link.wait_for("PARAM_VALUE", lambda m: text_field(m.param_id) == name, timeout_s)
     return None if answer is None else float(answer.param_value)
+
+
+async def read_params(
+    link: MavlinkLink, names: tuple[str, ...], timeout_s: float = 0.5
+) -> dict[str, float]:
+    """The parameters among ``names`` that the autopilot answers for (PX4 lacks ArduPilot's)."""
+    values = {}
+    for name in names:
+        value = await read_param(link, name, timeout_s)
+        if value is not None:
+            values[name] = value
+    return values
