@@ -25,6 +25,7 @@ demo: $(STAMP) web-deps
 test: $(STAMP) system-deps web-deps
 	$(BIN)/ruff format --check src tests bench
 	$(BIN)/ruff check src tests bench
+	$(BIN)/mypy
 	bash scripts/run-tests.sh
 
 # Only the real-autopilot tests: ARDUPILOT_SITL names ArduPilot Copter SITL (see README).

@@ -136,6 +136,7 @@ async def _demo(args: argparse.Namespace) -> int:
         await ground.start()
         try:
             ground.app.state.web_tiles = args.tiles
+            assert ground.state is not None  # started above
             operator, viewer = await _tokens(TokenBook(ground.state), state_dir, args.token)
             async with SimFleet() as fleet:
                 ids = [f"QUAD_{i + 1}" for i in range(args.drones)]

@@ -30,7 +30,7 @@ import asyncio
 import math
 import selectors
 import time
-from collections.abc import Awaitable, Callable, Coroutine
+from collections.abc import Callable, Coroutine
 from typing import Any, TypeVar
 
 T = TypeVar("T")
@@ -153,7 +153,9 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         return events
 
     # -- executor jobs hold time still ----------------------------------------------------------
-    def run_in_executor(self, executor: Any, func: Callable[..., T], *args: Any) -> Any:
+    def run_in_executor(  # type: ignore[override]  # same call, typeshed's generic signature
+        self, executor: Any, func: Callable[..., T], *args: Any
+    ) -> asyncio.Future[T]:
         future = super().run_in_executor(executor, func, *args)
         self.busy_jobs += 1
         future.add_done_callback(self._job_done)
@@ -186,14 +188,14 @@ def _follow_loop_time_in_paho(loop: VirtualTimeLoop) -> None:
 
 
 def run(
-    main: Coroutine[Any, Any, T] | Callable[[], Awaitable[T]],
+    main: Coroutine[Any, Any, T] | Callable[[], Coroutine[Any, Any, T]],
     *,
     speedup: float = math.inf,
     debug: bool | None = None,
 ) -> T:
     """``asyncio.run`` on a :class:`VirtualTimeLoop`: the entry point of in-process simulations."""
     with asyncio.Runner(debug=debug, loop_factory=lambda: VirtualTimeLoop(speedup)) as runner:
-        coro = main if asyncio.iscoroutine(main) else main()  # type: ignore[operator]
+        coro = main if isinstance(main, Coroutine) else main()
         return runner.run(coro)
 
 

@@ -321,7 +321,7 @@ class MissionWorker:
 
 def _sensor_names(sensors: dict[str, Any]) -> list[str]:
     """Sensor keys of a Listing 4.2 sensor list: nested groups ({"GAS": {"CO2": ...}}) flattened."""
-    names = []
+    names: list[str] = []
     for key, value in sensors.items():
         if isinstance(value, dict):
             names.extend(value.keys())

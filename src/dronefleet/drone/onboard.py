@@ -145,7 +145,7 @@ async def fly(
     """Fly ``steps`` on board, reporting each; False (nothing done) when they cannot be."""
     if not wanted(worker, steps, requested) or (onboard := plan(worker, steps)) is None:
         return False
-    fc = worker.controller.fc
+    fc: Any = worker.controller.fc  # a backend with a ``mission`` facade (wanted() checked)
     try:
         await fc.mission.upload(onboard.items, home=fc.home())
     except FcError as exc:
@@ -261,8 +261,10 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
             else:
                 left_since = None
     except FcError as exc:
-        index = pending[0][0] if pending else None
-        report(ProgressEvent.FAILED, step_index=index, step_count=count, ok=False, error=str(exc))
+        failed_at = pending[0][0] if pending else None
+        report(
+            ProgressEvent.FAILED, step_index=failed_at, step_count=count, ok=False, error=str(exc)
+        )
         return
     finally:
         pump.cancel()

@@ -22,6 +22,7 @@ from dronefleet.ground.planner.service import MissionPlanner
 from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.commands import parse_control
 from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.sim.clock import SimClock
 
 #: The seed's field: the University of Aveiro campus.
 ORIGIN = LLA(40.6300, -8.6590, 10.0)
@@ -37,17 +38,28 @@ class Harness:
     ) -> None:
         self.speedup = speedup
         self._tmp = None if workdir else tempfile.TemporaryDirectory(prefix="dronefleet-exp-")
-        self.workdir = workdir or Path(self._tmp.name)
+        self.workdir = workdir if workdir is not None else Path(self._tmp.name)  # type: ignore[union-attr]
         self.broker = EmbeddedBroker()
         self.fleet = ProtocolFleet(speedup=speedup, backend=fc)
         self.ground: GroundServices | None = None
-        self.planner: MissionPlanner | None = None
+        self._planner: MissionPlanner | None = None
         self.events: list[tuple[str, dict[str, Any]]] = []
         self._changed = asyncio.Event()
 
     @property
-    def clock(self):
+    def clock(self) -> SimClock:
         return self.fleet.clock
+
+    @property
+    def planner(self) -> MissionPlanner:
+        """The running ground's Mission Planner (between :meth:`start_ground` and a stop)."""
+        if self._planner is None:
+            raise RuntimeError("the ground services are not running (start_ground first)")
+        return self._planner
+
+    @property
+    def has_planner(self) -> bool:
+        return self._planner is not None
 
     async def __aenter__(self) -> Harness:
         await self.broker.start()
@@ -73,11 +85,13 @@ class Harness:
             planner_client_id="experiment-planner",
         )
         await self.ground.start()
-        self.planner = self.ground.planner
-        self.planner.add_listener(self._on_event)
+        planner = self.ground.planner
+        assert planner is not None  # GroundServices.start made it
+        self._planner = planner
+        planner.add_listener(self._on_event)
 
     async def stop_ground(self) -> None:
-        self.planner = None
+        self._planner = None
         if self.ground is not None:
             await self.ground.stop()
             self.ground = None

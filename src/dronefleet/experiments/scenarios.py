@@ -21,20 +21,28 @@ from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec
-from dronefleet.ground.planner.launch import MissionOptions, MissionSpec
-from dronefleet.ground.planner.models import MissionRecord
+from dronefleet.ground.planner.coverage.spec import Action, Grid
+from dronefleet.ground.planner.launch import MissionOptions, MissionSpec, Strategy
+from dronefleet.ground.planner.models import Leg, MissionRecord
 from dronefleet.ground.planner.units import units
 
 
 def rectangle(
     north_m: float, east_m: float, width_e_m: float, length_n_m: float
-) -> list[list[float]]:
+) -> list[tuple[float, float]]:
     """Corners [lat, lon] of a rectangle whose south-west corner is ``north_m``/``east_m`` away."""
     corners = [(0, 0), (length_n_m, 0), (length_n_m, width_e_m), (0, width_e_m)]
     return [
-        [p.lat, p.lon]
+        (p.lat, p.lon)
         for p in (ned_to_lla(NED(north_m + n, east_m + e), ORIGIN) for n, e in corners)
     ]
+
+
+def _leg(record: MissionRecord, leg_id: str) -> Leg:
+    leg = record.leg(leg_id)
+    if leg is None:
+        raise ExperimentFailed(f"mission {record.mission_id} has no leg {leg_id}")
+    return leg
 
 
 def reports(record: MissionRecord) -> list[tuple[str, Any]]:
@@ -49,7 +57,7 @@ def reached(record: MissionRecord) -> tuple[int, int]:
     return len(waits), sum(1 for i in waits if i in record.done)
 
 
-async def panic(h: Harness, strategy: str) -> Result:
+async def panic(h: Harness, strategy: Strategy) -> Result:
     await h.add_drone("QUAD_P", NED(100, 0))
     await h.wait_identified(["QUAD_P"])
     await h.settle()
@@ -74,7 +82,7 @@ async def panic(h: Harness, strategy: str) -> Result:
     )
 
 
-async def survey(h: Harness, strategy: str) -> Result:
+async def survey(h: Harness, strategy: Strategy) -> Result:
     await h.add_drone("QUAD_S", NED(0, 0), hovering_m=10)
     await h.wait_identified(["QUAD_S"])
     await h.settle()
@@ -83,9 +91,9 @@ async def survey(h: Harness, strategy: str) -> Result:
         spacing_m=8,
         altitude_m=10,
         angle_deg=0,
-        action="takepic",
+        action=Action.TAKEPIC,
         fly_through=strategy == "ours",
-        grid="seed",
+        grid=Grid.SEED,
     )
     spec = MissionSpec(
         name="survey",
@@ -104,10 +112,8 @@ async def survey(h: Harness, strategy: str) -> Result:
     )
     planned, done = reached(record)
     pictures = sum(1 for _, r in reports(record) if r.command == "takepic")
-    last = h.events and [
-        d for e, d in h.events if e == "progress" and d.get("event") == "completed"
-    ]
-    triggered = (last[-1].get("result") or {}).get("triggered_pictures", 0) if last else 0
+    completed = [d for e, d in h.events if e == "progress" and d.get("event") == "completed"]
+    triggered = (completed[-1].get("result") or {}).get("triggered_pictures", 0) if completed else 0
     return Result(
         "survey",
         strategy,
@@ -134,7 +140,7 @@ def with_alarm(
     return [*steps[:cut], alarm, *steps[cut:]]
 
 
-async def replacement(h: Harness, strategy: str) -> Result:
+async def replacement(h: Harness, strategy: Strategy) -> Result:
     """Seed: a virtual CRITICAL alarm at waypoint 13, replaced on alarm. Ours: the first drone's
     battery lasts for 13 waypoints with the 20% reserve; the planner sees it coming and launches
     the replacement early so it arrives as the first drone leaves."""
@@ -142,7 +148,7 @@ async def replacement(h: Harness, strategy: str) -> Result:
     from dronefleet.ground.planner.estimate import estimate
 
     area = AreaSpec(
-        polygon=rectangle(17, 0, 30, 60), spacing_m=10, altitude_m=10, angle_deg=0, grid="seed"
+        polygon=rectangle(17, 0, 30, 60), spacing_m=10, altitude_m=10, angle_deg=0, grid=Grid.SEED
     )
     plain = plan_area(area).mission_steps()
     start = ORIGIN
@@ -169,17 +175,17 @@ async def replacement(h: Harness, strategy: str) -> Result:
     record = await launch.create(h.planner, spec, start=True)
     record = await h.until_ended(record.mission_id)
     handover = record.handovers[0]
-    second = record.leg(handover["to_leg"])
+    second = _leg(record, handover["to_leg"])
     t0 = record.legs[0].started_vehicle_s or 0.0
     wait_step = max(i for i, st in enumerate(second.prefix) if st["command"] == "wait_for_flight")
-    arrive = next(r.vehicle_time_s for r in second.reports if r.drone_step == wait_step)
+    arrive = next((r.vehicle_time_s or 0.0) for r in second.reports if r.drone_step == wait_step)
     if handover["kind"] == "early":
-        leaving = record.leg(handover["leaving_leg"])
-        t_leave = max(r.vehicle_time_s for r in leaving.reports if r.index is not None)
+        leaving = _leg(record, handover["leaving_leg"])
+        t_leave = max((r.vehicle_time_s or 0.0) for r in leaving.reports if r.index is not None)
         t_launch = handover["launch_vehicle_s"]
     else:
         t_leave = t_launch = handover["alarm_vehicle_s"]
-    waypoints = {}
+    waypoints: dict[str, int] = {}
     for leg in record.legs:
         n = sum(
             1
@@ -214,7 +220,7 @@ async def replacement(h: Harness, strategy: str) -> Result:
     )
 
 
-async def collab(h: Harness, strategy: str) -> Result:
+async def collab(h: Harness, strategy: Strategy) -> Result:
     from dronefleet.ground.planner.coverage import plan_area
 
     area = AreaSpec(
@@ -222,9 +228,9 @@ async def collab(h: Harness, strategy: str) -> Result:
         spacing_m=7,
         altitude_m=10,
         angle_deg=0,
-        action="read_sensors",
+        action=Action.READ_SENSORS,
         hold_s=2,
-        grid="seed",
+        grid=Grid.SEED,
     )
     steps = with_alarm(plan_area(area).mission_steps(), 15, "OUT_MEASURE")
     for name, offset in (("QUAD_A", NED(0, 0)), ("QUAD_B", NED(0, 12)), ("QUAD_C", NED(0, 24))):
@@ -280,7 +286,7 @@ class ExperimentFailed(RuntimeError):
 
 
 def _state(h: Harness) -> str:
-    missions = h.planner.missions.values() if h.planner is not None else []
+    missions = h.planner.missions.values() if h.has_planner else []
     parts = [
         f"{m.mission_id} {m.state.value} {len(m.done)}/{len(m.required_indices())} steps"
         for m in missions
@@ -289,7 +295,7 @@ def _state(h: Harness) -> str:
 
 
 async def run(
-    name: str, *, strategy: str = "ours", speedup: float = 10.0, fc: str = "sim"
+    name: str, *, strategy: Strategy = "ours", speedup: float = 10.0, fc: str = "sim"
 ) -> Result:
     """Run experiment ``name``; ``fc`` picks the flight-controller backend of every drone
     (sim, mavlink, uavtalk, or mixed — see :mod:`dronefleet.experiments.fleets`).

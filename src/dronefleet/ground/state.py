@@ -184,7 +184,8 @@ class StateStore:
         self, *, drone_id: str | None = None, limit: int = 100, before_id: int | None = None
     ) -> list[dict[str, Any]]:
         sql = "SELECT id, ts, who, role, drone_id, command, params, status, answer FROM audit"
-        where, args = [], []
+        where: list[str] = []
+        args: list[Any] = []
         if drone_id is not None:
             where.append("drone_id = ?")
             args.append(drone_id)

@@ -80,7 +80,7 @@ class IndexedBroker(Broker):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self._subscriptions = _Filters(self._subscriptions)
+        self._subscriptions: dict[str, list[Any]] = _Filters(self._subscriptions)
         self._wildcard_cache: dict[str, tuple[str, ...]] = {}
         self._wildcard_cache_version = -1
 

@@ -47,7 +47,7 @@ class _Subscription:
 def _no_delay(client: aiomqtt.Client) -> None:
     """Send small packets at once: with Nagle's algorithm each broker hop waited ~40 ms for a
     delayed ACK (measured by bench/command_rtt.py: p50 146 ms -> 18 ms per REST command)."""
-    sock = client._client.socket()  # aiomqtt exposes no public handle on paho's socket
+    sock: Any = client._client.socket()  # aiomqtt exposes no public handle on paho's socket
     with contextlib.suppress(OSError, AttributeError):
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 

@@ -10,6 +10,7 @@ import asyncio
 import logging
 import socket
 
+from dronefleet.messaging.broker_index import IndexedBroker
 from dronefleet.messaging.url import BrokerUrl
 
 
@@ -25,14 +26,13 @@ class EmbeddedBroker:
     def __init__(self, host: str = "127.0.0.1", port: int | None = None) -> None:
         self.host = host
         self.port = port or free_port(host)
-        self._broker = None
+        self._broker: IndexedBroker | None = None
 
     @property
     def url(self) -> BrokerUrl:
         return BrokerUrl(self.host, self.port)
 
     async def start(self) -> EmbeddedBroker:
-        from dronefleet.messaging.broker_index import IndexedBroker
 
         # amqtt logs every connection at INFO; keep our logs readable.
         for name in ("amqtt", "transitions"):
@@ -43,8 +43,8 @@ class EmbeddedBroker:
                 "amqtt.plugins.authentication.AnonymousAuthPlugin": {"allow_anonymous": True}
             },
         }
-        self._broker = IndexedBroker(config)
-        await self._broker.start()
+        broker = self._broker = IndexedBroker(config)
+        await broker.start()
         return self
 
     async def stop(self) -> None:

@@ -94,7 +94,7 @@ def _body_model(model: type[BaseModel]) -> type[BaseModel]:
         for name, info in model.model_fields.items()
         if name not in _HIDDEN
     }
-    return create_model(  # type: ignore[call-overload]
+    return create_model(
         f"{model.__name__}Body", __config__=ConfigDict(extra="forbid"), **fields
     )
 

@@ -57,6 +57,8 @@ async def _audit_rejected(request: Request, body: dict[str, Any]) -> None:
     from dronefleet.ground.manager.auth import Role
 
     match = _COMMAND_PATH.match(request.url.path)
+    if match is None:
+        return
     ctx = request.app.state.ctx
     try:
         who = await ctx.tokens.principal(request, Role.OPERATOR)

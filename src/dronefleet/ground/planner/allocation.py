@@ -113,14 +113,7 @@ def _route(
     else:
         waypoints, altitude = list(route), 10.0 if altitude_m is None else altitude_m
         holds = [holds_s or 0.0] * len(waypoints) if not isinstance(holds_s, Sequence) else holds_s
-        units = [
-            [
-                {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": altitude},
-                {"command": "wait_for_flight"},
-            ]
-            + ([{"command": "sleep", "value": h}] if h else [])
-            for p, h in zip(waypoints, holds, strict=True)
-        ]
+        units = [_hop(p, altitude, h) for p, h in zip(waypoints, holds, strict=True)]
         starts = np.ones(len(waypoints), dtype=bool)
     if not waypoints:
         raise ValueError("there are no waypoints to share")
@@ -319,3 +312,14 @@ def seed_equal_split(
         first = float(start[k, 0, b]) if e > b else 0.0
         out.append(Assignment(slot.drone_id, list(range(b, e)), done, 0.0, first))
     return out
+
+
+def _hop(p: LLA, altitude_m: float, hold_s: float) -> list[dict[str, Any]]:
+    """The steps that fly to one waypoint (and hold there)."""
+    steps: list[dict[str, Any]] = [
+        {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": altitude_m},
+        {"command": "wait_for_flight"},
+    ]
+    if hold_s:
+        steps.append({"command": "sleep", "value": hold_s})
+    return steps

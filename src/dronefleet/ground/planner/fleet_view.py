@@ -42,7 +42,7 @@ class DroneView:
     @classmethod
     def from_public(cls, d: dict[str, Any]) -> DroneView | None:
         pos, home, battery = d.get("position"), d.get("home") or d.get("position"), d.get("battery")
-        if not pos or not battery:
+        if not pos or not home or not battery:
             return None
         return cls(
             drone_id=d["drone_id"],

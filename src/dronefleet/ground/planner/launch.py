@@ -24,6 +24,9 @@ from dronefleet.ground.planner.units import units
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import parse_step
 
+#: How a drone gets to its work: climbing while flying (ours) or the dissertation's way (seed).
+Strategy = Literal["ours", "seed"]
+
 
 class MissionOptions(BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -33,7 +36,7 @@ class MissionOptions(BaseModel):
     collaboration: bool = True  # grow the area on OUT_MEASURE
     collaborators: int = Field(default=2, ge=0, le=10)
     max_expansions: int = Field(default=1, ge=0, le=10)
-    strategy: Literal["ours", "seed"] = "ours"
+    strategy: Strategy = "ours"
     # Fly each leg on board its autopilot (MAVLink AUTO) when its steps allow it (true), from
     # the companion computer (false), or as each drone is configured (null).
     onboard: bool | None = None
@@ -62,6 +65,7 @@ def work_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
         raise PlannerError("give 'steps', 'area', or both")
     plan = plan_area(spec.area) if spec.area is not None else None
     if spec.steps is None:
+        assert plan is not None  # an area was given
         return plan.mission_steps(), plan
     steps = []
     for i, step in enumerate(spec.steps):
@@ -251,7 +255,7 @@ async def call_drone(
     lon: float,
     *,
     altitude_m: float = 10.0,
-    strategy: str = "ours",
+    strategy: Strategy = "ours",
 ) -> MissionRecord:
     """The seed's panic button (5.1): the nearest available drone comes and hovers above you."""
     target = LLA(lat, lon)

@@ -126,6 +126,7 @@ async def replace(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str
             planner.emit("mission", **record.summary())
             log.warning("mission %s: %s", record.mission_id, record.error)
             return
+        assert not isinstance(prefix_or_reason, str)  # a chosen drone comes with its preparation
         prefix = prefix_or_reason
         if trigger:
             prefix = [*prefix, {"command": "camera_trigger", "value": trigger}]

@@ -11,7 +11,7 @@ truncated or random bytes are counted and dropped; a component never dies on inp
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
@@ -20,7 +20,7 @@ log = logging.getLogger(__name__)
 #: The dialect module: message classes (``mavlink2.MAVLink_heartbeat_message``) and enums.
 dialect = mavlink2
 
-Message = mavlink2.MAVLink_message
+Message: TypeAlias = mavlink2.MAVLink_message  # pymavlink ships no type information
 
 
 class Encoder:

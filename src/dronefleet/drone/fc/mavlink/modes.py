@@ -120,12 +120,13 @@ def decode_mode(autopilot: Autopilot, custom_mode: int) -> FlightMode:
         if main == Px4Main.OFFBOARD:
             return FlightMode.GUIDED
         if main == Px4Main.AUTO:
-            return {
+            px4_auto: dict[int, FlightMode] = {
                 Px4Auto.MISSION: FlightMode.MISSION,
                 Px4Auto.RTL: FlightMode.RTL,
                 Px4Auto.LAND: FlightMode.LAND,
                 Px4Auto.TAKEOFF: FlightMode.GUIDED,
-            }.get(sub, FlightMode.HOLD)
+            }
+            return px4_auto.get(sub, FlightMode.HOLD)
         return FlightMode.HOLD if main == Px4Main.POSCTL else FlightMode.STABILIZE
     try:
         return _COPTER_TO_FLIGHT.get(CopterMode(custom_mode), FlightMode.STABILIZE)
