@@ -13,7 +13,6 @@ import gzip
 import shutil
 import socket
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -23,6 +22,7 @@ import httpx
 
 from dronefleet.messaging.embedded import free_port
 from support.brokers import mosquitto
+from support.processes import dronefleet, process
 
 #: Vehicle seconds per wall second for SITL.
 SITL_SPEEDUP = 10
@@ -135,10 +135,6 @@ def sitl_vehicle(
         vehicle.kill()
 
 
-def dronefleet(*args: str) -> list[str]:
-    return [sys.executable, "-m", "dronefleet.cli", *args]
-
-
 @dataclass
 class Ground:
     url: str
@@ -164,6 +160,13 @@ class Ground:
             time.sleep(0.5)
         raise TimeoutError(f"{drone_id} not online within {timeout_s} s")
 
+    def run_mission(self, spec: dict, timeout_s: float = 240) -> dict:
+        """Create and start ``spec`` through the REST API; the mission once it has ended."""
+        created = self.api("POST", "/api/v1/missions?start=true", json=spec)
+        if created.status_code != 201:
+            raise AssertionError(f"mission refused ({created.status_code}): {created.text}")
+        return self.wait_ended(created.json()["mission_id"], timeout_s)
+
     def wait_ended(self, mission_id: str, timeout_s: float = 240) -> dict:
         deadline = time.monotonic() + timeout_s
         mission: dict = {}
@@ -173,22 +176,6 @@ class Ground:
                 return mission
             time.sleep(1)
         raise TimeoutError(f"mission {mission_id} still {mission.get('state')} after {timeout_s}s")
-
-
-@contextlib.contextmanager
-def process(cmd: list[str], log: Path) -> Iterator[subprocess.Popen[bytes]]:
-    with open(log, "ab") as out:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
-    try:
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
 
 
 @contextlib.contextmanager

@@ -10,8 +10,6 @@ import contextlib
 import os
 import shutil
 import socket
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -21,38 +19,11 @@ import pytest
 
 from dronefleet.messaging.embedded import free_port
 from support.brokers import wait_port
+from support.processes import dronefleet, process, stop  # noqa: F401 - used by the tests
 
 INFLUXD = shutil.which("influxd") or "/usr/bin/influxd"
 #: RabbitMQ's MQTT adapter as scripts/system-deps.sh sets it up (beside Mosquitto's 1883).
 RABBIT_MQTT = ("127.0.0.1", int(os.environ.get("RABBIT_MQTT_PORT", "1884")))
-
-
-def dronefleet(*args: str) -> list[str]:
-    return [sys.executable, "-m", "dronefleet.cli", *args]
-
-
-@contextlib.contextmanager
-def process(cmd: list[str], log: Path) -> Iterator[subprocess.Popen[bytes]]:
-    with open(log, "ab") as out:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
-    try:
-        yield proc
-    finally:
-        stop(proc)
-
-
-def stop(proc: subprocess.Popen[bytes], sig_kill: bool = False) -> None:
-    if proc.poll() is not None:
-        return
-    if sig_kill:
-        proc.kill()
-    else:
-        proc.terminate()
-    try:
-        proc.wait(10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
 
 
 def drone_cmd(drone_id: str, broker: str, speedup: float = 10.0) -> list[str]:

@@ -53,9 +53,7 @@ def test_the_planners_step_mission_takes_off_and_completes(ground, fly, strategy
         "steps": step_mission(home, [(100, 0), (100, 100), (0, 100), (0, 0), (50, 50)]),
         "options": {"strategy": strategy},
     }
-    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
-    assert created.status_code == 201, created.text
-    mission = ground.wait_ended(created.json()["mission_id"])
+    mission = ground.run_mission(spec)
     assert mission["state"] == "completed", mission.get("error")
     assert mission["waypoints_reached"] == mission["waypoints"] == 6
     assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2
@@ -75,9 +73,7 @@ def test_an_area_split_over_two_vehicles_flies_with_both_airborne(ground, fly):
             "altitude_m": ALT_M,
         },
     }
-    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
-    assert created.status_code == 201, created.text
-    mission = ground.wait_ended(created.json()["mission_id"], timeout_s=300)
+    mission = ground.run_mission(spec, timeout_s=300)
     assert mission["state"] == "completed", mission.get("error")
     assert mission["waypoints_reached"] == mission["waypoints"]
     heights = highest_m(ground, mission["mission_id"])
@@ -95,9 +91,7 @@ def test_an_onboard_step_mission_is_started_and_flown_by_ardupilot(ground, fly):
         "steps": step_mission(home, [(100, 0), (100, 100), (0, 100)]),
         "options": {"onboard": True},
     }
-    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
-    assert created.status_code == 201, created.text
-    mission = ground.wait_ended(created.json()["mission_id"])
+    mission = ground.run_mission(spec)
     assert mission["state"] == "completed", mission.get("error")
     assert mission["waypoints_reached"] == mission["waypoints"] == 4
     assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2

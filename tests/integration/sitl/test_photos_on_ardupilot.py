@@ -63,9 +63,7 @@ def test_a_photo_step_without_a_camera_fails_with_the_reason(ground, fly):
         "steps": photo_mission(LLA(home["lat"], home["lon"], home["alt_m"]), 1),
         "options": {"strategy": "seed"},
     }
-    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
-    assert created.status_code == 201, created.text
-    mission = ground.wait_ended(created.json()["mission_id"])
+    mission = ground.run_mission(spec)
     assert mission["state"] == "failed"
     assert "no picture taken" in mission["error"] and "FAILED" in mission["error"]
 
@@ -81,9 +79,7 @@ def test_with_a_camera_every_reported_photo_is_one_ardupilot_took(ground, fly):
             "steps": photo_mission(LLA(home["lat"], home["lon"], home["alt_m"]), 3),
             "options": {"strategy": "seed"},
         }
-        created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
-        assert created.status_code == 201, created.text
-        mission = ground.wait_ended(created.json()["mission_id"])
+        mission = ground.run_mission(spec)
     finally:
         counter.close()
     assert mission["state"] == "completed", mission.get("error")

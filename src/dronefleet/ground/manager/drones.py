@@ -94,9 +94,7 @@ def _body_model(model: type[BaseModel]) -> type[BaseModel]:
         for name, info in model.model_fields.items()
         if name not in _HIDDEN
     }
-    return create_model(
-        f"{model.__name__}Body", __config__=ConfigDict(extra="forbid"), **fields
-    )
+    return create_model(f"{model.__name__}Body", __config__=ConfigDict(extra="forbid"), **fields)
 
 
 def _add_command_route(command: Command, body_model: type[BaseModel], doc: str) -> None:
