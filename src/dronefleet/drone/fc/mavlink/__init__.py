@@ -9,6 +9,7 @@ and PX4 mode encodings), :mod:`.items` and :mod:`.mission` (missions on board), 
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from dronefleet.drone.fc.mavlink.controller import MavlinkFlightController
@@ -28,6 +29,9 @@ __all__ = [
 ]
 
 
+log = logging.getLogger(__name__)
+
+
 async def open_flight_controller(url: str, **options: Any) -> MavlinkFlightController:
     """A connected controller for the autopilot at ``url`` (home known); ``options`` go to
     :class:`MavlinkFlightController` (e.g. ``telemetry_rate_hz``, ``target_system``)."""
@@ -37,5 +41,11 @@ async def open_flight_controller(url: str, **options: Any) -> MavlinkFlightContr
 
 
 def payload(fc: MavlinkFlightController) -> tuple[dict[str, Sensor], Camera | None]:
-    """The Gear Manager's view of the vehicle: a CO2 sensor and the autopilot's camera."""
-    return {"CO2": NamedValueSensor(fc, "CO2", "ppm")}, AutopilotCamera(fc)
+    """The Gear Manager's view of the vehicle: a CO2 sensor and the autopilot's camera — none
+    when the autopilot says it has none (ArduPilot's CAM1_TYPE 0), so the gear check reports
+    "no camera" at start and a photo step fails with that reason."""
+    camera: Camera | None = AutopilotCamera(fc)
+    if fc.params.get("CAM1_TYPE") == 0:
+        log.warning("autopilot %s has no camera (CAM1_TYPE 0): photos will be refused", fc.url)
+        camera = None
+    return {"CO2": NamedValueSensor(fc, "CO2", "ppm")}, camera

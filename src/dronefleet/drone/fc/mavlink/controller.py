@@ -52,11 +52,12 @@ DEFAULT_STREAMS_HZ = {
     "POSITION_TARGET_GLOBAL_INT": 4.0,
 }
 MIN_TARGET_ALT_M = 0.5
-#: Autopilot parameters read on connect for the planner's estimates (ArduPilot Copter's names;
-#: speeds in cm/s, accelerations in cm/s², altitudes in cm, capacity in mAh).
+#: Autopilot parameters read on connect: for the planner's estimates (ArduPilot Copter's names;
+#: speeds in cm/s, accelerations in cm/s², altitudes in cm, capacity in mAh) and whether a
+#: camera is configured (CAM1_TYPE).
 FLIGHT_PARAMS = (
     "WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_SPEED_UP", "WPNAV_SPEED_DN",
-    "LAND_SPEED", "LAND_ALT_LOW", "BATT_CAPACITY",
+    "LAND_SPEED", "LAND_ALT_LOW", "BATT_CAPACITY", "CAM1_TYPE",
 )  # fmt: skip
 _FLIGHT_PARAM_UNITS = (
     ("speed_mps", "WPNAV_SPEED", 0.01), ("accel_mps2", "WPNAV_ACCEL", 0.01),
