@@ -29,11 +29,14 @@ class BatteryStatus(Message):
 
 class FlightParams(Message):
     """How this vehicle flies, for the planner's time and battery estimates (issue 17): its
-    autopilot's settings (ArduPilot: WPNAV_SPEED, WPNAV_ACCEL, WPNAV_SPEED_UP/DN, LAND_SPEED,
-    LAND_ALT_LOW, BATT_CAPACITY) and the current it was measured to draw in flight."""
+    autopilot's settings (ArduPilot: WP_SPD, WP_ACC, WP_ACC_Z, WP_JERK, WP_SPD_UP/DN,
+    LAND_SPD_MS, LAND_ALT_LOW_M, BATT_CAPACITY) and the current it was measured to draw in
+    flight."""
 
     speed_mps: float | None = Field(default=None, gt=0, le=50)
     accel_mps2: float | None = Field(default=None, gt=0, le=20)
+    accel_z_mps2: float | None = Field(default=None, gt=0, le=20)
+    jerk_mps3: float | None = Field(default=None, gt=0, le=100)
     climb_mps: float | None = Field(default=None, gt=0, le=20)
     descent_mps: float | None = Field(default=None, gt=0, le=20)
     land_speed_mps: float | None = Field(default=None, gt=0, le=20)

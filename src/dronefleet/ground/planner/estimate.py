@@ -56,13 +56,19 @@ class VehicleModel:
     @classmethod
     def of_vehicle(cls, params: dict[str, Any] | None, base: VehicleModel | None = None) -> Any:
         """This model with what a drone reported of its vehicle (``Heartbeat.flight``): its
-        autopilot's speeds, accelerations, landing and capacity, and its measured flight draw."""
+        autopilot's speeds, accelerations, landing and capacity, and its measured flight draw.
+
+        ArduPilot limits jerk too (WP_JERK): reaching speed v then takes v/a + a/j, not v/a. The
+        trapezoids here use the acceleration that takes that long, which covers the same
+        distance as the S-curve (both average v/2 while speeding up)."""
         model = base or cls()
         if not params:
             return model
+        value = {k: float(v) for k, v in params.items() if isinstance(v, int | float) and v > 0}
         mapping = {
             "speed_mps": "max_speed_mps",
             "accel_mps2": "accel_mps2",
+            "accel_z_mps2": "accel_z_mps2",
             "climb_mps": "max_climb_mps",
             "descent_mps": "max_descent_mps",
             "land_speed_mps": "land_speed_mps",
@@ -70,13 +76,17 @@ class VehicleModel:
             "capacity_mah": "capacity_mah",
             "flight_current_a": "hover_current_a",
         }
-        changes = {
-            ours: float(params[theirs])
-            for theirs, ours in mapping.items()
-            if isinstance(params.get(theirs), int | float) and params[theirs] > 0
-        }
-        if "accel_mps2" in changes:
+        changes = {ours: value[theirs] for theirs, ours in mapping.items() if theirs in value}
+        if "accel_mps2" in changes and "accel_z_mps2" not in changes:
             changes["accel_z_mps2"] = changes["accel_mps2"]
+        jerk = value.get("jerk_mps3")
+        if jerk:
+            speed = changes.get("max_speed_mps", model.max_speed_mps)
+            climb = changes.get("max_climb_mps", model.max_climb_mps)
+            a = changes.get("accel_mps2", model.accel_mps2)
+            az = changes.get("accel_z_mps2", model.accel_z_mps2)
+            changes["accel_mps2"] = speed / (speed / a + a / jerk)
+            changes["accel_z_mps2"] = climb / (climb / az + az / jerk)
         return replace(model, **changes)
 
     @property

@@ -45,7 +45,7 @@ def payload(fc: MavlinkFlightController) -> tuple[dict[str, Sensor], Camera | No
     when the autopilot says it has none (ArduPilot's CAM1_TYPE 0), so the gear check reports
     "no camera" at start and a photo step fails with that reason."""
     camera: Camera | None = AutopilotCamera(fc)
-    if fc.params.get("CAM1_TYPE") == 0:
+    if fc.params.get("camera_type") == 0:
         log.warning("autopilot %s has no camera (CAM1_TYPE 0): photos will be refused", fc.url)
         camera = None
     return {"CO2": NamedValueSensor(fc, "CO2", "ppm")}, camera

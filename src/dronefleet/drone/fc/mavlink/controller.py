@@ -52,19 +52,23 @@ DEFAULT_STREAMS_HZ = {
     "POSITION_TARGET_GLOBAL_INT": 4.0,
 }
 MIN_TARGET_ALT_M = 0.5
-#: Autopilot parameters read on connect: for the planner's estimates (ArduPilot Copter's names;
-#: speeds in cm/s, accelerations in cm/s², altitudes in cm, capacity in mAh) and whether a
-#: camera is configured (CAM1_TYPE).
-FLIGHT_PARAMS = (
-    "WPNAV_SPEED", "WPNAV_ACCEL", "WPNAV_SPEED_UP", "WPNAV_SPEED_DN",
-    "LAND_SPEED", "LAND_ALT_LOW", "BATT_CAPACITY", "CAM1_TYPE",
-)  # fmt: skip
-_FLIGHT_PARAM_UNITS = (
-    ("speed_mps", "WPNAV_SPEED", 0.01), ("accel_mps2", "WPNAV_ACCEL", 0.01),
-    ("climb_mps", "WPNAV_SPEED_UP", 0.01), ("descent_mps", "WPNAV_SPEED_DN", 0.01),
-    ("land_speed_mps", "LAND_SPEED", 0.01), ("land_alt_low_m", "LAND_ALT_LOW", 0.01),
-    ("capacity_mah", "BATT_CAPACITY", 1.0),
-)  # fmt: skip
+#: Autopilot parameters read on connect, for the planner's estimates and the gear check: key in
+#: Heartbeat.flight, then ArduPilot Copter's names with the factor to SI units. Recent ArduPilot
+#: (the SITL this project tests, upstream 64a9c78) names them in SI units (WP_SPD m/s, WP_ACC
+#: m/s², WP_JERK m/s³, LAND_SPD_MS, LAND_ALT_LOW_M); earlier versions in cm (WPNAV_SPEED cm/s,
+#: WPNAV_ACCEL cm/s², LAND_SPEED, LAND_ALT_LOW cm). The first name the autopilot knows wins.
+FLIGHT_PARAMS: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
+    ("speed_mps", (("WP_SPD", 1.0), ("WPNAV_SPEED", 0.01))),
+    ("accel_mps2", (("WP_ACC", 1.0), ("WPNAV_ACCEL", 0.01))),
+    ("accel_z_mps2", (("WP_ACC_Z", 1.0), ("WPNAV_ACCEL_Z", 0.01))),
+    ("jerk_mps3", (("WP_JERK", 1.0), ("WPNAV_JERK", 1.0))),
+    ("climb_mps", (("WP_SPD_UP", 1.0), ("WPNAV_SPEED_UP", 0.01))),
+    ("descent_mps", (("WP_SPD_DN", 1.0), ("WPNAV_SPEED_DN", 0.01))),
+    ("land_speed_mps", (("LAND_SPD_MS", 1.0), ("LAND_SPEED", 0.01))),
+    ("land_alt_low_m", (("LAND_ALT_LOW_M", 1.0), ("LAND_ALT_LOW", 0.01))),
+    ("capacity_mah", (("BATT_CAPACITY", 1.0),)),
+    ("camera_type", (("CAM1_TYPE", 1.0),)),
+)
 #: ArduPilot's "really" values: disarm in flight, reboot while armed.
 FORCE_DISARM_MAGIC = 21196
 FORCE_REBOOT_MAGIC = 20190226
@@ -112,7 +116,7 @@ class MavlinkFlightController(VehicleView):
         self._connected = False
         self._closed = False
         self._capacity_mah = 0.0
-        self.params: dict[str, float] = {}  # FLIGHT_PARAMS as the autopilot answered them
+        self.params: dict[str, float] = {}  # FLIGHT_PARAMS the autopilot answered, in SI units
         self._background: set[asyncio.Task[Any]] = set()
         self.link.add_listener(self._on_message)
         self.link.on_link_change(self._on_link_change)
@@ -144,7 +148,7 @@ class MavlinkFlightController(VehicleView):
             await self.request_streams()
             await session.learn_home(self.commands)
             self.params = await session.read_params(self.link, FLIGHT_PARAMS)
-            self._capacity_mah = self.params.get("BATT_CAPACITY") or 0.0
+            self._capacity_mah = self.params.get("capacity_mah") or 0.0
         except BaseException:
             await self.link.close()
             raise
@@ -316,11 +320,7 @@ class MavlinkFlightController(VehicleView):
 
     def flight_params(self) -> dict[str, float]:
         """How this vehicle flies, from its parameters (SI units; for the planner)."""
-        p, out = self.params, {}
-        for key, name, scale in _FLIGHT_PARAM_UNITS:
-            if p.get(name):
-                out[key] = p[name] * scale
-        return out
+        return {k: v for k, v in self.params.items() if k != "camera_type" and v > 0}
 
     async def hold(self) -> None:
         if not self.state().in_air:

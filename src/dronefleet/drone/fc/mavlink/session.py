@@ -9,15 +9,19 @@ for relative altitudes, so connecting fails with that reason.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 
 from dronefleet.drone.fc.base import FcError
+from dronefleet.drone.fc.mavlink.codec import Message, message_id, text_field
 from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.codec import message_id, text_field
 from dronefleet.drone.fc.mavlink.commands import CommandSender
 from dronefleet.drone.fc.mavlink.link import MavlinkLink
 
 log = logging.getLogger(__name__)
+
+#: Wall seconds without a further PARAM_VALUE that end a burst of parameter answers.
+_PARAM_QUIET_S = 0.2
 
 
 async def request_streams(commands: CommandSender, streams_hz: dict[str, float]) -> None:
@@ -69,12 +73,49 @@ async def read_param(link: MavlinkLink, name: str, timeout_s: float = 1.0) -> fl
 
 
 async def read_params(
-    link: MavlinkLink, names: tuple[str, ...], timeout_s: float = 0.5
+    link: MavlinkLink,
+    wanted: tuple[tuple[str, tuple[tuple[str, float], ...]], ...],
+    timeout_s: float = 1.0,
 ) -> dict[str, float]:
-    """The parameters among ``names`` that the autopilot answers for (PX4 lacks ArduPilot's)."""
-    values = {}
-    for name in names:
-        value = await read_param(link, name, timeout_s)
-        if value is not None:
-            values[name] = value
+    """For each ``(key, ((name, factor), ...))``: the first of the names the autopilot answers
+    for, times its factor. Every name is asked at once and the answers are gathered for up to
+    ``timeout_s`` (an autopilot stays silent about a name it does not know, so asking one by
+    one would cost a timeout per unknown name)."""
+    names = {name for _, candidates in wanted for name, _ in candidates}
+    answers: dict[str, float] = {}
+    heard = asyncio.Event()
+
+    def collect(msg: Message) -> None:
+        if msg.get_type() == "PARAM_VALUE":
+            name = text_field(msg.param_id)
+            if name in names:
+                answers[name] = float(msg.param_value)
+                heard.set()
+
+    remove = link.add_listener(collect)
+    try:
+        for name in sorted(names):
+            link.send(
+                mav.MAVLink_param_request_read_message(
+                    link.target_system, link.target_component, name.encode(), -1
+                )
+            )
+        # The answers come as one burst: wait for the first, then until a short quiet gap.
+        wait_s = timeout_s
+        while len(answers) < len(names):
+            heard.clear()
+            try:
+                async with asyncio.timeout(wait_s):
+                    await heard.wait()
+            except TimeoutError:
+                break
+            wait_s = _PARAM_QUIET_S
+    finally:
+        remove()
+    values: dict[str, float] = {}
+    for key, candidates in wanted:
+        for name, factor in candidates:
+            if name in answers:
+                values[key] = answers[name] * factor
+                break
     return values
