@@ -94,3 +94,31 @@ def test_with_a_camera_every_reported_photo_is_one_ardupilot_took(ground, fly):
     ]
     assert len(photos) == 3
     assert counter.count == 3
+
+
+def test_an_area_with_photos_is_flown_and_every_photo_is_one_ardupilot_took(ground, fly):
+    vehicle = fly("SITL_1", params={"CAM1_TYPE": 1})
+    counter = FeedbackCounter(vehicle.instance)
+    try:
+        h = ground.drone("SITL_1")["home"]
+        home = LLA(h["lat"], h["lon"], h["alt_m"])
+        corners = [
+            ned_to_lla(NED(n, e, 0), home) for n, e in [(20, 0), (100, 0), (100, 120), (20, 120)]
+        ]
+        spec = {
+            "name": "area with photos",
+            "drones": ["SITL_1"],
+            "area": {
+                "polygon": [[c.lat, c.lon] for c in corners],
+                "spacing_m": 20,
+                "altitude_m": 20,
+                "action": "takepic",
+            },
+        }
+        mission = ground.run_mission(spec, timeout_s=300)
+    finally:
+        counter.close()
+    assert mission["state"] == "completed", mission.get("error")
+    assert mission["waypoints_reached"] == mission["waypoints"]
+    photos = sum(1 for s in mission["work"] if s["command"] == "takepic")
+    assert photos > 0 and counter.count == photos
