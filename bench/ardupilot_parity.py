@@ -51,7 +51,7 @@ def step_spec(home: LLA, **options: Any) -> dict[str, Any]:
     return {"name": "step", "steps": steps, "options": options}
 
 
-def area_spec(home: LLA, **options: Any) -> dict[str, Any]:
+def area_spec(home: LLA, fly_through: bool = False, **options: Any) -> dict[str, Any]:
     corners = [ned_to_lla(NED(n, e, 0), home) for n, e in AREA]
     area = {
         "polygon": [[c.lat, c.lon] for c in corners],
@@ -59,8 +59,14 @@ def area_spec(home: LLA, **options: Any) -> dict[str, Any]:
         "altitude_m": ALT_M,
         "angle_deg": 90,
         "action": "takepic",
+        "fly_through": fly_through,
     }
     return {"name": "area", "area": area, "options": options}
+
+
+def survey_spec(home: LLA, **options: Any) -> dict[str, Any]:
+    """The area photographed on the move (pictures by distance along each line)."""
+    return area_spec(home, fly_through=True, **options)
 
 
 CASES: dict[str, tuple[Any, int, dict[str, Any]]] = {
@@ -71,6 +77,7 @@ CASES: dict[str, tuple[Any, int, dict[str, Any]]] = {
     "area, one drone, defaults": (area_spec, 1, {}),
     "area, two drones, defaults": (area_spec, 2, {}),
     "area, on board": (area_spec, 1, {"onboard": True}),
+    "area, on board, fly-through": (survey_spec, 1, {"onboard": True}),
 }
 
 

@@ -77,6 +77,32 @@ class Vehicle:
             self.proc.kill()
             self.proc.wait()
 
+    @property
+    def second_url(self) -> str:
+        """SERIAL1: a second ground station's link (SERIAL0 is the drone's)."""
+        return f"tcp:127.0.0.1:{5762 + 10 * self.instance}"
+
+    def swap_battery(self) -> None:
+        """A full pack, as after landing and changing it: MAV_CMD_BATTERY_RESET to 100 %."""
+        from pymavlink import mavutil
+
+        conn = mavutil.mavlink_connection(self.second_url, source_system=251)
+        try:
+            conn.wait_heartbeat(timeout=10)
+            m = mavutil.mavlink
+            for _ in range(5):
+                conn.mav.command_long_send(
+                    conn.target_system, 1, m.MAV_CMD_BATTERY_RESET, 0, 0xFF, 100, 0, 0, 0, 0, 0
+                )
+                ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=2)
+                if ack is not None and ack.command == m.MAV_CMD_BATTERY_RESET:
+                    if ack.result != m.MAV_RESULT_ACCEPTED:
+                        raise RuntimeError(f"BATTERY_RESET refused ({ack.result})")
+                    return
+            raise TimeoutError("no answer to BATTERY_RESET")
+        finally:
+            conn.close()
+
     def restart(self) -> None:
         """Start the same vehicle again (same folder, instance and parameters)."""
         self.kill()

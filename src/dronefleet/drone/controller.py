@@ -19,6 +19,7 @@ from dronefleet.clock import monotonic
 from dronefleet.drone.arming import ArmingSwitch
 from dronefleet.drone.camera_trigger import CameraTrigger
 from dronefleet.drone.config import DroneConfig
+from dronefleet.drone.draw import FlightDraw
 from dronefleet.drone.fc.base import FcError, FlightController
 from dronefleet.drone.navigation import NavigationProcessor, Tolerance
 from dronefleet.drone.state import flight_state, position_of
@@ -60,7 +61,7 @@ class DroneController:
         self.step_index: int | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._telemetry_task: asyncio.Task[None] | None = None
-        self._flight_current_a: float | None = None  # measured in flight (heartbeats)
+        self.draw = FlightDraw()  # measured in flight, sampled with every heartbeat
         self._events: list[Any] = []  # listeners of local events (the Logger)
 
     def topic(self, channel: Channel, direction: Direction = Direction.OUT) -> str:
@@ -203,19 +204,17 @@ class DroneController:
             step_index=self.step_index,
             # A companion computer outlives its autopilot link (issue 17): the ground is told.
             autopilot_link=bool(getattr(self.fc, "connected", True)),
-            flight=self._flight_params(battery.current_a, state.in_air),
+            flight=self._flight_params(battery, state.in_air),
         )
 
-    def _flight_params(self, current_a: float | None, in_air: bool) -> FlightParams | None:
+    def _flight_params(self, battery: Any, in_air: bool) -> FlightParams | None:
         """The vehicle's figures for the planner, with the current it draws in flight measured
-        here (a running mean over heartbeats in the air)."""
-        if in_air and current_a is not None and current_a > 0:
-            mean = self._flight_current_a
-            self._flight_current_a = current_a if mean is None else mean + 0.2 * (current_a - mean)
+        here (drone/draw.py)."""
+        self.draw.sample(self.clock.now(), battery.consumed_mah, battery.current_a, in_air)
         read = getattr(self.fc, "flight_params", None)
         params = dict(read()) if read is not None else {}
-        if self._flight_current_a is not None:
-            params["flight_current_a"] = round(self._flight_current_a, 2)
+        if "hover_current_a" not in params and (mean_a := self.draw.mean_a) is not None:
+            params["flight_current_a"] = round(mean_a, 2)
         try:
             return FlightParams(**params) if params else None
         except ValidationError:

@@ -18,9 +18,15 @@ broker is down reach the ground, in order, when it is back — the vehicle meanw
 
 Step → item: ``takeoff`` NAV_TAKEOFF, ``navigate`` NAV_WAYPOINT (done when it becomes current),
 ``wait_for_flight`` (done when the last waypoint is reached), ``sleep`` NAV_LOITER_TIME where the
-vehicle is, ``takepic`` a zero-second loiter followed by DO_DIGICAM_CONTROL (DO items run when the
-NAV item before them starts), ``land`` NAV_LAND. A last loiter is followed by a hold waypoint so its
-end is seen as the next item becoming current.
+vehicle is, ``land`` NAV_LAND. ArduPilot runs the DO items after a NAV item when that item
+completes (``AP_Mission::advance_current_nav_cmd``), so a picture needs no stop of its own:
+``takepic`` right after a waypoint is a DO_DIGICAM_CONTROL after it (taken as the waypoint is
+reached, flown through), ``camera_trigger`` a DO_SET_CAM_TRIGG_DIST after it (a fly-through
+survey line: first picture at the line's start, then every N metres, off at its end — as
+QGroundControl's surveys fly). Only a ``takepic`` with no waypoint before it becomes a
+zero-second loiter and the picture. A last loiter is followed by a hold waypoint so its end is
+seen as the next item becoming current. The autopilot's CAMERA_FEEDBACK / CAMERA_IMAGE_CAPTURED
+count is the mission's photo count.
 """
 
 from __future__ import annotations
@@ -52,6 +58,7 @@ FLYABLE = frozenset(
         Command.WAIT_FOR_FLIGHT,
         Command.SLEEP,
         Command.TAKEPIC,
+        Command.CAMERA_TRIGGER,
         Command.LAND,
     }
 )
@@ -97,6 +104,13 @@ def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | N
     prefix: list[tuple[int, Any]] = []
     items: list[Any] = []
     thresholds: list[tuple[int, Any, int]] = []
+    at_goal: int | None = None  # the waypoint item at ``goal``, while nothing has moved on since
+
+    def after_nav() -> int:
+        """The level at which a DO item appended now runs: its NAV item's completion."""
+        navs = [i for i, item in enumerate(items) if item.is_nav]
+        return 2 * navs[-1] + 1 if navs else 0
+
     for index, step in steps:
         command = step.command
         if command is Command.ARM:
@@ -107,25 +121,30 @@ def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | N
         if command is Command.TAKEOFF:
             alt_m = step.value if step.value is not None else config.takeoff_altitude_m
             items.append(mi.takeoff(alt_m))
-            level = 2 * (len(items) - 1)
+            level, at_goal = 2 * (len(items) - 1), None
         elif command is Command.NAVIGATE:
             if step.altitude_delta is not None:
                 alt_m = step.altitude_delta
             goal = (step.lat, step.lon)
             items.append(mi.waypoint(step.lat, step.lon, alt_m))
-            level = 2 * (len(items) - 1)
+            level, at_goal = 2 * (len(items) - 1), len(items) - 1
         elif command is Command.WAIT_FOR_FLIGHT:
-            level = 2 * (len(items) - 1) + 1 if items else 0
+            navs = [i for i, item in enumerate(items) if item.is_nav]
+            level = 2 * navs[-1] + 1 if navs else 0
         elif command is Command.SLEEP:
             items.append(mi.loiter_time(*goal, alt_m, float(step.value or 0.0)))
-            level = 2 * len(items)  # done when the next item starts
+            level, at_goal = 2 * len(items), None  # done when the next item starts
         elif command is Command.TAKEPIC:
-            items.append(mi.loiter_time(*goal, alt_m, 0.0))
-            level = 2 * len(items)
+            if at_goal is None:  # nothing to fly through: stop here for the picture
+                items.append(mi.loiter_time(*goal, alt_m, 0.0))
             items.append(mi.take_photo())
+            level = after_nav()
+        elif command is Command.CAMERA_TRIGGER:
+            items.append(mi.trigger_distance(float(step.value or 0.0)))
+            level = after_nav()
         else:  # LAND
             items.append(mi.land())
-            level = 2 * (len(items) - 1)
+            level, at_goal = 2 * (len(items) - 1), None
         thresholds.append((index, step, level))
     if not items:
         return None
@@ -221,6 +240,7 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
     land_level = 2 * lands[-1] if lands else None
     events: asyncio.Queue[Any] = asyncio.Queue()
     fc.mission.current_seq = None  # what was current before the upload says nothing now
+    photos_before = fc.mission.photo_count
     pump = asyncio.create_task(_pump(fc, events), name=f"onboard-progress:{mission_id}")
     began = clock.now()
     try:
@@ -277,7 +297,7 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
         step_started_s=started,
         step_duration_s=clock.now() - started,
         step_index=last,
-        result={"on_board": True},
+        result={"on_board": True, "photos": fc.mission.photo_count - photos_before},
     )
 
 

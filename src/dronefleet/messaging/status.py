@@ -30,8 +30,8 @@ class BatteryStatus(Message):
 class FlightParams(Message):
     """How this vehicle flies, for the planner's time and battery estimates (issue 17): its
     autopilot's settings (ArduPilot: WP_SPD, WP_ACC, WP_ACC_Z, WP_JERK, WP_SPD_UP/DN,
-    LAND_SPD_MS, LAND_ALT_LOW_M, BATT_CAPACITY) and the current it was measured to draw in
-    flight."""
+    LAND_SPD_MS, LAND_ALT_LOW_M, BATT_CAPACITY) and the current it draws: known (the simulator's
+    model) or measured in flight (drone/draw.py)."""
 
     speed_mps: float | None = Field(default=None, gt=0, le=50)
     accel_mps2: float | None = Field(default=None, gt=0, le=20)
@@ -42,6 +42,8 @@ class FlightParams(Message):
     land_speed_mps: float | None = Field(default=None, gt=0, le=20)
     land_alt_low_m: float | None = Field(default=None, ge=0, le=100)
     capacity_mah: float | None = Field(default=None, gt=0, le=1_000_000)
+    #: A vehicle whose draw is known (our simulator) says so; any other is measured in flight.
+    hover_current_a: float | None = Field(default=None, gt=0, le=1000)
     flight_current_a: float | None = Field(default=None, gt=0, le=1000)
 
 

@@ -125,3 +125,34 @@ def test_an_operator_rtl_brings_the_copter_home_and_down(ground, fly):
     here = drone["position"]
     away = lla_to_ned(LLA(here["lat"], here["lon"], home.alt_m), home)
     assert away.horizontal_m < 5.0 and here["relative_alt_m"] < 1.0
+
+
+def test_a_second_flight_is_estimated_from_the_draw_measured_on_the_first(ground, fly):
+    """Must-show 3 (issue 17): ±10 % of flown time and ±5 points of battery. The first flight of a
+    vehicle is estimated with the dissertation quad's draw (18 A; SITL draws about 30 A); the
+    drone measures what it drew and the next estimate uses it."""
+    vehicle = fly("SITL_1")
+    home = home_of(ground.drone("SITL_1"))
+    spec = {
+        "name": "twice",
+        "drones": ["SITL_1"],
+        "steps": step_mission(home, [(100, 0), (100, 100), (0, 100), (0, 0)]),
+    }
+    first = ground.run_mission(spec)
+    assert first["state"] == "completed", first.get("error")
+    measured = ground.drone("SITL_1")["flight"]["flight_current_a"]
+    assert 20 < measured < 45  # SITL's quad, not the dissertation's 18 A
+    vehicle.swap_battery()
+    deadline = time.monotonic() + 30
+    while ground.drone("SITL_1")["battery"]["remaining_pct"] < 99:
+        assert time.monotonic() < deadline, "the fresh battery never showed"
+        time.sleep(0.5)
+    preview = ground.api("POST", "/api/v1/missions/preview", json=spec).json()["drones"][0]
+    second = ground.run_mission(spec)
+    assert second["state"] == "completed", second.get("error")
+    record = ground.api("GET", f"/api/v1/missions/{second['mission_id']}").json()
+    (leg,) = record["legs"]
+    flown_s = leg["ended_vehicle_s"] - leg["started_vehicle_s"]
+    used_pct = 100 - ground.drone("SITL_1")["battery"]["remaining_pct"]
+    assert preview["duration_s"] == pytest.approx(flown_s, rel=0.10)
+    assert preview["battery_used_pct"] == pytest.approx(used_pct, abs=5)

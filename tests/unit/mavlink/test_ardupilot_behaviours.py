@@ -129,3 +129,72 @@ def test_landing_from_10_m_takes_ardupilots_time_and_ends_disarmed():
         seconds += 0.05
     assert 15 <= seconds <= 25
     assert not copter.vehicle.armed
+
+
+def _mission(copter: SimCopter, *items: mi.MissionItem) -> None:
+    home = mi.MissionItem(mav.MAV_CMD_NAV_WAYPOINT, z=HOME.alt_m, frame=mi.ABSOLUTE)
+    copter.on_mission_replaced([home, *items])
+    copter.set_mode(CopterMode.GUIDED)
+    copter.arm()
+    copter.start_mission()
+
+
+def _north_m(info: dict) -> float:
+    from dronefleet.geo.ned import lla_to_ned
+
+    return lla_to_ned(LLA(info["lat"], info["lon"], HOME.alt_m), HOME).n
+
+
+def test_a_do_command_after_a_waypoint_runs_when_the_waypoint_is_reached():
+    # AP_Mission::advance_current_nav_cmd starts the DO commands it passes on its way from the
+    # completed NAV command to the next one: a photo after a waypoint is taken there, not as the
+    # vehicle sets off towards it (which is what this simulator did).
+    from dronefleet.geo.ned import ned_to_lla
+
+    copter = make(camera=True)
+    pictures: list[dict] = []
+    copter.events.captured = pictures.append  # type: ignore[method-assign]
+    a, b = ned_to_lla(NED(40, 0), HOME), ned_to_lla(NED(80, 0), HOME)
+    _mission(
+        copter,
+        mi.takeoff(10),
+        mi.waypoint(a.lat, a.lon, 10),
+        mi.take_photo(),
+        mi.waypoint(b.lat, b.lon, 10),
+        mi.land(),
+    )
+    run(copter, 90)
+    assert len(pictures) == 1
+    assert _north_m(pictures[0]) == pytest.approx(40, abs=2.5)  # inside WPNAV_RADIUS (2 m)
+
+
+def test_the_distance_trigger_photographs_every_n_metres_until_set_to_zero():
+    # AP_Mission::start_command_camera: DO_SET_CAM_TRIGG_DIST sets the distance (param1) and,
+    # with param3 = 1, takes one picture at once; zero stops it.
+    from dronefleet.geo.ned import ned_to_lla
+
+    copter = make(camera=True)
+    pictures: list[dict] = []
+    copter.events.captured = pictures.append  # type: ignore[method-assign]
+    a, b, c = (ned_to_lla(NED(n, 0), HOME) for n in (20, 85, 120))
+    trigger = mi.MissionItem(
+        mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST, param1=15, param3=1, frame=mav.MAV_FRAME_MISSION
+    )
+    stop = mi.MissionItem(mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST, frame=mav.MAV_FRAME_MISSION)
+    _mission(
+        copter,
+        mi.takeoff(10),
+        mi.waypoint(a.lat, a.lon, 10),
+        trigger,
+        mi.waypoint(b.lat, b.lon, 10),
+        stop,
+        mi.waypoint(c.lat, c.lon, 10),
+        mi.land(),
+    )
+    run(copter, 120)
+    norths = [_north_m(p) for p in pictures]
+    # From where 20 m was reached (inside WPNAV_RADIUS, 2 m) every 15 m; none after 85 m.
+    assert len(norths) == 5, norths
+    assert norths == pytest.approx([18 + 15 * k for k in range(5)], abs=1.0)
+    assert command(copter, mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST, 10) == mav.MAV_RESULT_ACCEPTED
+    assert command(make(), mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST, 10) == mav.MAV_RESULT_FAILED

@@ -106,7 +106,7 @@ def test_auto_flies_the_mission_and_reports_each_item():
     run(copter, 60)
     assert events.reached == [1, 2, 4]
     assert events.current[:3] == [1, 2, 4]
-    assert len(events.pictures) == 1  # DO_DIGICAM runs as the waypoint leg starts
+    assert len(events.pictures) == 1  # DO_DIGICAM runs once the waypoint (and its hold) is done
     assert not copter.vehicle.in_air
     assert lla_to_ned(copter.vehicle.position_lla, HOME).n == pytest.approx(30, abs=0.5)
     assert copter.runner.finished

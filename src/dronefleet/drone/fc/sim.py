@@ -99,6 +99,7 @@ class SimFlightController:
             "climb_mps": limits.max_climb_mps,
             "descent_mps": limits.max_descent_mps,
             "capacity_mah": battery.capacity_mah,
+            "hover_current_a": battery.hover_current_a,
         }
 
     async def hold(self) -> None:

@@ -52,6 +52,9 @@ class VehicleModel:
     # ArduPilot lands in two stages: down to LAND_ALT_LOW at WPNAV_SPEED_DN, then LAND_SPEED.
     land_speed_mps: float | None = None
     land_alt_low_m: float = 0.0
+    #: The mean current this vehicle was measured to draw in the air (drone/draw.py). When known
+    #: it replaces the hover/forward/climb model, which is the dissertation quad's, not this one's.
+    flight_current_a: float | None = None
 
     @classmethod
     def of_vehicle(cls, params: dict[str, Any] | None, base: VehicleModel | None = None) -> Any:
@@ -74,7 +77,8 @@ class VehicleModel:
             "land_speed_mps": "land_speed_mps",
             "land_alt_low_m": "land_alt_low_m",
             "capacity_mah": "capacity_mah",
-            "flight_current_a": "hover_current_a",
+            "hover_current_a": "hover_current_a",
+            "flight_current_a": "flight_current_a",
         }
         changes = {ours: value[theirs] for theirs, ours in mapping.items() if theirs in value}
         if "accel_mps2" in changes and "accel_z_mps2" not in changes:
@@ -272,9 +276,12 @@ class _State:
             self.h += sign * x
             self.vz = sign * v
             climb = sign * x
-        hover = m.hover_current_a
-        self.charge_as += hover * (flying + slow) + hover * _FORWARD * v2 / m.max_speed_mps**2
-        self.charge_as += hover * (_CLIMB * climb if climb > 0 else _DESCENT * climb)
+        if m.flight_current_a is not None:
+            self.charge_as += m.flight_current_a * (flying + slow)
+        else:
+            hover = m.hover_current_a
+            self.charge_as += hover * (flying + slow) + hover * _FORWARD * v2 / m.max_speed_mps**2
+            self.charge_as += hover * (_CLIMB * climb if climb > 0 else _DESCENT * climb)
         if touchdown:  # on the ground: the vehicle disarms itself
             self.h = self.vz = self.vn = self.ve = 0.0
             self.in_air = self.armed = self.landing = False

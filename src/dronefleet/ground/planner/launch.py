@@ -140,9 +140,12 @@ async def assign(
             for a in split(plan, slots)
             if a.waypoint_indices
         ]
+    # An autopilot flying the mission on board completes NAV_TAKEOFF before its first waypoint
+    # (ArduPilot's AUTO): the preparation says so, as the seed's does, and the estimate follows.
+    prepare = "seed" if spec.options.onboard else strategy
     result = []
     for drone, indices in shares:
-        prefix = [] if self_prepared(work) else preparation(drone, altitude, strategy=strategy)
+        prefix = [] if self_prepared(work) else preparation(drone, altitude, strategy=prepare)
         steps = prefix + [work[i] for i in indices]
         est = estimate(
             steps,

@@ -1,11 +1,13 @@
 """AUTO mode: the simulated Copter flies its uploaded mission on board.
 
-As ArduPilot does: the mission starts at item 1 (item 0 is home); a NAV command (take off, fly to
-a waypoint, loiter for a time, land, return to launch) runs until it completes, and the DO
-commands after it (take a picture, change speed) run as soon as it *starts*; DO_JUMP repeats a
-section. A waypoint counts as reached inside WPNAV_RADIUS; MISSION_ITEM_REACHED goes out then,
-before any hold time. Nothing here needs a ground station: the vehicle keeps flying the mission
-when the link is gone, which is the point of uploading it.
+As ArduPilot does: the mission starts at item 1 (item 0 is home); a NAV command (take off, fly to a
+waypoint, loiter for a time, land, return to launch) runs until it completes, and the DO commands
+after it (take a picture, trigger the camera by distance, change speed) run when it *completes*,
+before the next NAV command starts — ``AP_Mission::advance_current_nav_cmd`` starts the DO commands
+it passes on its way to the next NAV command; DO commands before the first NAV command run at the
+start. DO_JUMP repeats a section. A waypoint counts as reached inside WPNAV_RADIUS;
+MISSION_ITEM_REACHED goes out then, before any hold time. Nothing here needs a ground station: the
+vehicle keeps flying the mission when the link is gone, which is the point of uploading it.
 """
 
 from __future__ import annotations
@@ -75,14 +77,10 @@ class MissionRunner:
         self.current = seq
         self.copter.events.mission_current(seq)
         self._start_nav(self.items[seq])
-        k = seq + 1
-        while k < len(self.items) and not self.items[k].is_nav:
-            if self.items[k].command != mav.MAV_CMD_DO_JUMP:
-                self._run_do(self.items[k])
-            k += 1
 
     def _skip_to_nav(self, seq: int) -> int:
-        """From ``seq``, the next NAV item, following DO_JUMPs that still have repeats left."""
+        """From ``seq``, the next NAV item, following DO_JUMPs that still have repeats left and
+        running the DO commands passed on the way."""
         guard = 0
         while seq < len(self.items) and not self.items[seq].is_nav and guard < 1000:
             guard += 1
@@ -93,6 +91,8 @@ class MissionRunner:
                     self._jumps[seq] = left - 1 if left > 0 else -1
                     seq = int(item.param1)
                     continue
+            else:
+                self._run_do(item)
             seq += 1
         return seq
 
@@ -154,6 +154,8 @@ class MissionRunner:
         shoot = cmd == mav.MAV_CMD_DO_DIGICAM_CONTROL and item.x == 1
         if shoot or cmd == mav.MAV_CMD_IMAGE_START_CAPTURE:
             self.copter.take_picture()
+        elif cmd == mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST:
+            self.copter.trigger.set_distance(item.param1, shoot_now=item.param3 == 1)
         elif cmd == mav.MAV_CMD_DO_CHANGE_SPEED and item.param2 > 0:
             v.limits = replace(v.limits, max_speed_mps=item.param2)
 

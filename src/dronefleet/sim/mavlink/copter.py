@@ -32,6 +32,7 @@ from dronefleet.geo.types import NED
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.mavlink.auto import MissionRunner
 from dronefleet.sim.mavlink.params import ParamTable
+from dronefleet.sim.mavlink.trigger import DistanceTrigger
 from dronefleet.sim.vehicle import SimVehicle, VehicleError
 
 log = logging.getLogger(__name__)
@@ -89,6 +90,7 @@ class SimCopter:
         self.mode = CopterMode.STABILIZE
         self.mission: list[MissionItem] = []
         self.runner = MissionRunner(self)
+        self.trigger = DistanceTrigger(self.take_picture)
         self.boot_epoch_s = vehicle.time_s
         self._rtl_phase: str | None = None
         self._rtl_alt_m = 0.0
@@ -200,6 +202,7 @@ class SimCopter:
             return None
         info = self.camera.capture()
         self.picture_count = self.camera.count
+        self.trigger.shot_at(self.vehicle.position_ned)
         self.events.captured(info)
         return info
 
@@ -251,6 +254,8 @@ class SimCopter:
             if v.armed and self.auto_armed and not self.runner.running and not self.runner.finished:
                 self.runner.start()
             self.runner.update()
+        if self.camera is not None and v.armed:
+            self.trigger.update(v.position_ned)
         self._land_speed()
         self._auto_disarm()
 

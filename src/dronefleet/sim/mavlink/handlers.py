@@ -56,6 +56,7 @@ class CommandHandler:
             m.MAV_CMD_DO_SET_MISSION_CURRENT: self._set_current,
             m.MAV_CMD_IMAGE_START_CAPTURE: lambda p, f: self._picture(),
             m.MAV_CMD_DO_DIGICAM_CONTROL: lambda p, f: self._picture() if p[4] == 1 else 0,
+            m.MAV_CMD_DO_SET_CAM_TRIGG_DIST: self._trigger_distance,
             m.MAV_CMD_DO_REPOSITION: self._reposition,
             m.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
         }
@@ -173,6 +174,12 @@ class CommandHandler:
         # No camera configured (CAM1_TYPE 0): SITL answers FAILED (issue 17).
         info = self.copter.take_picture()
         return mav.MAV_RESULT_ACCEPTED if info is not None else mav.MAV_RESULT_FAILED
+
+    def _trigger_distance(self, p: Params, frame: int) -> int:
+        if self.copter.camera is None:
+            return mav.MAV_RESULT_FAILED
+        self.copter.trigger.set_distance(p[0], shoot_now=p[2] == 1)
+        return mav.MAV_RESULT_ACCEPTED
 
     def _reposition(self, p: Params, frame: int) -> int:
         if int(p[1]) & mav.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE:

@@ -131,5 +131,16 @@ def take_photo() -> MissionItem:
     return MissionItem(mav.MAV_CMD_DO_DIGICAM_CONTROL, x=1, frame=mav.MAV_FRAME_MISSION)
 
 
+def trigger_distance(distance_m: float) -> MissionItem:
+    """DO_SET_CAM_TRIGG_DIST: a picture every ``distance_m`` flown, the first at once (param3 1);
+    zero stops it. How QGroundControl's surveys photograph a line without stopping."""
+    return MissionItem(
+        mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST,
+        param1=distance_m,
+        param3=1.0 if distance_m > 0 else 0.0,
+        frame=mav.MAV_FRAME_MISSION,
+    )
+
+
 def change_speed(speed_mps: float) -> MissionItem:
     return MissionItem(mav.MAV_CMD_DO_CHANGE_SPEED, param1=1.0, param2=speed_mps)

@@ -58,6 +58,9 @@ class MissionClient:
         self.retries = retries
         self.current_seq: int | None = None
         self.reached: list[int] = []
+        #: Pictures the autopilot reported, by message type (ArduPilot sends CAMERA_FEEDBACK, a
+        #: MAVLink camera CAMERA_IMAGE_CAPTURED, some both): the larger count is the photo count.
+        self.photos: dict[str, int] = {"CAMERA_FEEDBACK": 0, "CAMERA_IMAGE_CAPTURED": 0}
         self._queues: list[asyncio.Queue[MissionProgress]] = []
         self._total: int | None = None
         link.add_listener(self._on_message)
@@ -162,9 +165,15 @@ class MissionClient:
         await self.commands.long(mav.MAV_CMD_DO_SET_MISSION_CURRENT, seq)
 
     # -- progress -------------------------------------------------------------------------------
+    @property
+    def photo_count(self) -> int:
+        return max(self.photos.values())
+
     def _on_message(self, msg: Message) -> None:
         kind = msg.get_type()
-        if kind == "MISSION_CURRENT":
+        if kind in self.photos:
+            self.photos[kind] += 1
+        elif kind == "MISSION_CURRENT":
             total = getattr(msg, "total", 0) or self._total
             if msg.seq == self.current_seq:
                 return
