@@ -37,10 +37,10 @@ import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from dronefleet.drone.fc.base import FcError, FlightMode
 from dronefleet.drone.state import position_of
 from dronefleet.messaging.commands import Command
 from dronefleet.messaging.missions import MissionProgress, ProgressEvent
+from dronefleet.vehicle.base import FcError, FlightMode
 
 if TYPE_CHECKING:
     from dronefleet.drone.mission_worker import MissionWorker
@@ -92,7 +92,7 @@ def wanted(
 
 def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | None:
     """The on-board form of ``steps``, or None when some step cannot be flown on board."""
-    from dronefleet.drone.fc.mavlink import items as mi
+    from dronefleet.protocols.mavlink import items as mi
 
     if any(step.command not in FLYABLE for _, step in steps):
         return None
@@ -193,7 +193,7 @@ async def fly(
 
 
 async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, outbox) -> None:
-    from dronefleet.drone.fc.mavlink import items as mi
+    from dronefleet.protocols.mavlink import items as mi
 
     clock = worker.clock
     started = clock.now()
