@@ -26,6 +26,7 @@ test: $(STAMP) system-deps web-deps
 	$(BIN)/ruff format --check src tests bench
 	$(BIN)/ruff check src tests bench
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 	bash scripts/run-tests.sh
 
 # Only the real-autopilot tests: ARDUPILOT_SITL names ArduPilot Copter SITL (see README).

@@ -83,8 +83,9 @@ async def broker(tmp: Path, nodelay: bool):
 async def run_drones(broker_url: str, count: int) -> None:
     """The child process: ``count`` simulated drones in one SimWorld until stdin closes."""
     from dronefleet.drone.config import DroneConfig
-    from dronefleet.drone.simulated import SimFleet, homes_around
     from dronefleet.geo.types import LLA
+    from dronefleet.sim.homes import homes_around
+    from dronefleet.simfleet import SimFleet
 
     async with SimFleet(speedup=1.0) as fleet:
         homes = homes_around(LLA(40.63, -8.659, 10), count, spacing_m=8)

@@ -28,13 +28,14 @@ from pathlib import Path
 
 from dronefleet import virtual_loop
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet, homes_around, settle_heap
 from dronefleet.geo.types import LLA
 from dronefleet.ground.identifier import EVENTS_TOPIC
 from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
 from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.sim.homes import homes_around
+from dronefleet.simfleet import SimFleet, settle_heap
 
 HOME = LLA(40.63, -8.659, 10.0)
 HEARTBEAT_S = 5.0

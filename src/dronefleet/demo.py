@@ -114,12 +114,13 @@ async def _tokens(book: Any, state_dir: Path, given: str | None) -> tuple[str, s
 
 
 async def _demo(args: argparse.Namespace) -> int:
-    from dronefleet.drone.cli import DEFAULT_HOME, parse_lla
+    from dronefleet.cli.drone import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
-    from dronefleet.drone.simulated import SimFleet, homes_around, settle_heap
     from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.embedded import EmbeddedBroker
+    from dronefleet.sim.homes import homes_around
+    from dronefleet.simfleet import SimFleet, settle_heap
 
     stop = stop_event()
     home = parse_lla(DEFAULT_HOME)

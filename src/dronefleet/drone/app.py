@@ -13,13 +13,13 @@ import logging
 from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.controller import DroneController
 from dronefleet.drone.failsafe import FailSafe
-from dronefleet.drone.fc.base import FlightController
 from dronefleet.drone.gear import GearManager
 from dronefleet.drone.logger import DroneLogger
 from dronefleet.drone.mission_worker import MissionWorker
-from dronefleet.drone.payload import Camera, Sensor
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.url import BrokerUrl
+from dronefleet.vehicle.base import FlightController
+from dronefleet.vehicle.payload import Camera, Sensor
 
 log = logging.getLogger(__name__)
 

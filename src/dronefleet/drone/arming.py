@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from dronefleet.drone.fc.base import FcError, FlightController
+from dronefleet.vehicle.base import FcError, FlightController
 
 
 class ArmingSwitch:

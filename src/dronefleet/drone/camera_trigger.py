@@ -13,8 +13,8 @@ import logging
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from dronefleet.drone.fc.base import FlightController
 from dronefleet.geo.ned import lla_to_ned
+from dronefleet.vehicle.base import FlightController
 
 log = logging.getLogger(__name__)
 

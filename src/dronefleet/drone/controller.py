@@ -20,7 +20,6 @@ from dronefleet.drone.arming import ArmingSwitch
 from dronefleet.drone.camera_trigger import CameraTrigger
 from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.draw import FlightDraw
-from dronefleet.drone.fc.base import FcError, FlightController
 from dronefleet.drone.navigation import NavigationProcessor, Tolerance
 from dronefleet.drone.state import flight_state, position_of
 from dronefleet.messaging import topics
@@ -31,6 +30,7 @@ from dronefleet.messaging.gear import GearQuery, GearRequest
 from dronefleet.messaging.rpc import Requester, RequestTimeout
 from dronefleet.messaging.status import BatteryStatus, FlightParams, Heartbeat, Telemetry
 from dronefleet.messaging.topics import Channel, Direction
+from dronefleet.vehicle.base import FcError, FlightController
 
 log = logging.getLogger(__name__)
 

@@ -26,7 +26,6 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.clock import Clock
-from dronefleet.drone.payload import Camera, Sensor
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode, decode_object
@@ -34,6 +33,7 @@ from dronefleet.messaging.common import validate
 from dronefleet.messaging.gear import GearQuery, GearReply, GearRequest
 from dronefleet.messaging.status import Telemetry
 from dronefleet.messaging.topics import Channel, Direction
+from dronefleet.vehicle.payload import Camera, Sensor
 
 log = logging.getLogger(__name__)
 

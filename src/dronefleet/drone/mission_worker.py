@@ -19,7 +19,6 @@ from typing import Any
 from dronefleet.clock import timestamp_s
 from dronefleet.drone import onboard
 from dronefleet.drone.controller import CommandError, DroneController
-from dronefleet.drone.fc.base import FcError
 from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.state import position_of
 from dronefleet.messaging.client import QOS_COMMAND
@@ -36,6 +35,7 @@ from dronefleet.messaging.missions import (
 )
 from dronefleet.messaging.status import Alarm
 from dronefleet.messaging.topics import Channel, Direction
+from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
 

@@ -20,9 +20,9 @@ import logging
 from dataclasses import dataclass
 
 from dronefleet.clock import wait_until
-from dronefleet.drone.fc.base import FcError, FlightController
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.vehicle.base import FcError, FlightController
 
 log = logging.getLogger(__name__)
 

@@ -37,10 +37,10 @@ import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from dronefleet.drone.fc.base import FcError, FlightMode
 from dronefleet.drone.state import position_of
 from dronefleet.messaging.commands import Command
 from dronefleet.messaging.missions import MissionProgress, ProgressEvent
+from dronefleet.vehicle.base import FcError, FlightMode
 
 if TYPE_CHECKING:
     from dronefleet.drone.mission_worker import MissionWorker
@@ -90,67 +90,77 @@ def wanted(
     return ONBOARD_MIN_STEPS is not None and len(steps) >= ONBOARD_MIN_STEPS
 
 
+class _Items:
+    """The mission items being built, where they fly, and the progress level of each step."""
+
+    def __init__(self, alt_m: float, goal: tuple[float, float], takeoff_alt_m: float) -> None:
+        self.items: list[Any] = []
+        self.alt_m, self.goal, self.takeoff_alt_m = alt_m, goal, takeoff_alt_m
+        self.at_goal = False  # the last NAV item is a waypoint at ``goal``: a photo flies through
+
+    def after_nav(self) -> int:
+        """The level at which a DO item appended now runs: its NAV item's completion."""
+        navs = [i for i, item in enumerate(self.items) if item.is_nav]
+        return 2 * navs[-1] + 1 if navs else 0
+
+    def nav(self, item: Any, *, at_goal: bool = False) -> int:
+        self.items.append(item)
+        self.at_goal = at_goal
+        return 2 * (len(self.items) - 1)  # done when it becomes current
+
+    def add(self, step: Any) -> int:
+        """Append ``step``'s items; the level at which the step is done."""
+        from dronefleet.protocols.mavlink import items as mi
+
+        command = step.command
+        if command is Command.TAKEOFF:
+            self.alt_m = step.value if step.value is not None else self.takeoff_alt_m
+            return self.nav(mi.takeoff(self.alt_m))
+        if command is Command.NAVIGATE:
+            if step.altitude_delta is not None:
+                self.alt_m = step.altitude_delta
+            self.goal = (step.lat, step.lon)
+            return self.nav(mi.waypoint(step.lat, step.lon, self.alt_m), at_goal=True)
+        if command is Command.SLEEP:
+            seconds = float(step.value or 0.0)
+            return self.nav(mi.loiter_time(*self.goal, self.alt_m, seconds)) + 2  # next starts
+        if command is Command.LAND:
+            return self.nav(mi.land())
+        if command is Command.TAKEPIC:
+            if not self.at_goal:  # nothing to fly through: stop here for the picture
+                self.nav(mi.loiter_time(*self.goal, self.alt_m, 0.0))
+            self.items.append(mi.take_photo())
+        elif command is Command.CAMERA_TRIGGER:
+            self.items.append(mi.trigger_distance(float(step.value or 0.0)))
+        return self.after_nav()  # these and WAIT_FOR_FLIGHT: when the NAV item before is done
+
+
 def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | None:
     """The on-board form of ``steps``, or None when some step cannot be flown on board."""
-    from dronefleet.drone.fc.mavlink import items as mi
+    from dronefleet.protocols.mavlink import items as mi
 
     if any(step.command not in FLYABLE for _, step in steps):
         return None
     fc, config = worker.controller.fc, worker.config
-    state = fc.state()
     here, home = fc.position(), fc.home()
-    alt_m = here.alt_m - home.alt_m if state.in_air else config.takeoff_altitude_m
-    goal = (here.lat, here.lon)
+    alt_m = here.alt_m - home.alt_m if fc.state().in_air else config.takeoff_altitude_m
+    built = _Items(alt_m, (here.lat, here.lon), config.takeoff_altitude_m)
     prefix: list[tuple[int, Any]] = []
-    items: list[Any] = []
     thresholds: list[tuple[int, Any, int]] = []
-    at_goal: int | None = None  # the waypoint item at ``goal``, while nothing has moved on since
-
-    def after_nav() -> int:
-        """The level at which a DO item appended now runs: its NAV item's completion."""
-        navs = [i for i, item in enumerate(items) if item.is_nav]
-        return 2 * navs[-1] + 1 if navs else 0
-
     for index, step in steps:
-        command = step.command
-        if command is Command.ARM:
-            if items:
+        if step.command is Command.ARM:
+            if built.items:
                 return None  # arming between flying steps: leave it to the companion computer
             prefix.append((index, step))
-            continue
-        if command is Command.TAKEOFF:
-            alt_m = step.value if step.value is not None else config.takeoff_altitude_m
-            items.append(mi.takeoff(alt_m))
-            level, at_goal = 2 * (len(items) - 1), None
-        elif command is Command.NAVIGATE:
-            if step.altitude_delta is not None:
-                alt_m = step.altitude_delta
-            goal = (step.lat, step.lon)
-            items.append(mi.waypoint(step.lat, step.lon, alt_m))
-            level, at_goal = 2 * (len(items) - 1), len(items) - 1
-        elif command is Command.WAIT_FOR_FLIGHT:
-            navs = [i for i, item in enumerate(items) if item.is_nav]
-            level = 2 * navs[-1] + 1 if navs else 0
-        elif command is Command.SLEEP:
-            items.append(mi.loiter_time(*goal, alt_m, float(step.value or 0.0)))
-            level, at_goal = 2 * len(items), None  # done when the next item starts
-        elif command is Command.TAKEPIC:
-            if at_goal is None:  # nothing to fly through: stop here for the picture
-                items.append(mi.loiter_time(*goal, alt_m, 0.0))
-            items.append(mi.take_photo())
-            level = after_nav()
-        elif command is Command.CAMERA_TRIGGER:
-            items.append(mi.trigger_distance(float(step.value or 0.0)))
-            level = after_nav()
-        else:  # LAND
-            items.append(mi.land())
-            level, at_goal = 2 * (len(items) - 1), None
-        thresholds.append((index, step, level))
+        else:
+            thresholds.append((index, step, built.add(step)))
+    items = built.items
     if not items:
         return None
     last = max(level for *_, level in thresholds) if thresholds else 0
     if last >= 2 * len(items) - 1 or not items[-1].is_nav:
-        items.append(mi.waypoint(*goal, alt_m))  # its start marks the end of what came before
+        # its start marks the end of what came before
+        items.append(mi.waypoint(*built.goal, built.alt_m))
     return OnboardPlan(items, prefix, thresholds)
 
 
@@ -193,7 +203,7 @@ async def fly(
 
 
 async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, outbox) -> None:
-    from dronefleet.drone.fc.mavlink import items as mi
+    from dronefleet.protocols.mavlink import items as mi
 
     clock = worker.clock
     started = clock.now()

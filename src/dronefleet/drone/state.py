@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from dronefleet.drone.fc.base import VehicleState
 from dronefleet.geo.types import LLA
 from dronefleet.messaging.common import Position
 from dronefleet.messaging.status import FlightState
+from dronefleet.vehicle.base import VehicleState
 
 
 def flight_state(state: VehicleState) -> FlightState:

@@ -3,7 +3,7 @@
 The experiments fly through the real components down to the Flight Controller Interface; this
 module chooses what is below it, per drone:
 
-- ``sim``: the in-process :class:`~dronefleet.drone.fc.sim.SimFlightController`;
+- ``sim``: the in-process :class:`~dronefleet.sim.flight_controller.SimFlightController`;
 - ``mavlink``: the MAVLink backend over UDP to a :class:`~dronefleet.sim.mavlink.MavlinkSimServer`
   vehicle, payload through the autopilot (NAMED_VALUE_FLOAT gas, camera trigger);
 - ``uavtalk``: the UAVTalk backend over TCP to a :class:`~dronefleet.sim.uavtalk.UAVTalkServer`
@@ -29,7 +29,6 @@ from dronefleet.drone.app import DroneApp
 from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.fc import mavlink as mavlink_fc
 from dronefleet.drone.fc import uavtalk as uavtalk_fc
-from dronefleet.drone.simulated import SimFleet
 from dronefleet.geo.types import LLA
 from dronefleet.messaging.url import BrokerUrl
 from dronefleet.sim.camera import SimCamera
@@ -37,6 +36,7 @@ from dronefleet.sim.gasfield import GasSensor
 from dronefleet.sim.mavlink import MavlinkSimServer
 from dronefleet.sim.uavtalk import UAVTalkServer
 from dronefleet.sim.vehicle import SimVehicle
+from dronefleet.simfleet import SimFleet
 
 log = logging.getLogger(__name__)
 

@@ -4,10 +4,10 @@ sim clock, all driven by one :class:`SimWorld` loop (docs/DESIGN.md §2, §5).""
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.clock import SimClock
 from dronefleet.sim.gasfield import GasField, GasSensor, Plume
-from dronefleet.sim.kinematics import FlightLimits
 from dronefleet.sim.vehicle import SimVehicle, VehicleError
 from dronefleet.sim.wind import Wind
 from dronefleet.sim.world import SimWorld
+from dronefleet.vehicle.kinematics import FlightLimits
 
 __all__ = [
     "FlightLimits",

@@ -1,6 +1,6 @@
 """The simulated camera: each capture records where and when the picture was taken.
 
-Implements :class:`~dronefleet.drone.payload.Camera` for the Gear Manager (the seed's aerial
+Implements :class:`~dronefleet.vehicle.payload.Camera` for the Gear Manager (the seed's aerial
 photography experiment, section 5.2). With an output directory, each picture is written as a
 small grey baseline JPEG carrying the position in its GPS EXIF tags, built with the standard
 library only (a uniform image needs just one Huffman code per table).

@@ -2,7 +2,7 @@
 
 This is what the seed's collaborative-sensing experiment (section 5.4) measured with a real gas
 sensor: a drone finds a concentration above the alarm level and calls others to widen the search.
-The sensor implements :class:`~dronefleet.drone.payload.Sensor` for the Gear Manager.
+The sensor implements :class:`~dronefleet.vehicle.payload.Sensor` for the Gear Manager.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from dronefleet.drone.payload import Reading
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
+from dronefleet.vehicle.payload import Reading
 
 if TYPE_CHECKING:
     from dronefleet.sim.vehicle import SimVehicle

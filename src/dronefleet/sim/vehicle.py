@@ -12,13 +12,13 @@ import enum
 import logging
 import math
 
-from dronefleet.drone.fc.base import Attitude, BatteryState, FcError, FlightMode
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
-from dronefleet.sim.battery import Battery
 from dronefleet.sim.gps import GpsReceiver
-from dronefleet.sim.kinematics import GRAVITY_MPS2, FlightLimits, Kinematics
 from dronefleet.sim.wind import CALM, Wind
+from dronefleet.vehicle.base import Attitude, BatteryState, FcError, FlightMode
+from dronefleet.vehicle.battery import Battery
+from dronefleet.vehicle.kinematics import GRAVITY_MPS2, FlightLimits, Kinematics
 
 log = logging.getLogger(__name__)
 

@@ -24,7 +24,7 @@ from dronefleet.sim.wind import CALM, Wind
 from dronefleet.virtual_loop import VirtualTimeLoop
 
 if TYPE_CHECKING:
-    from dronefleet.drone.fc.sim import SimFlightController
+    from dronefleet.sim.flight_controller import SimFlightController
 
 log = logging.getLogger(__name__)
 
@@ -80,8 +80,8 @@ class SimWorld:
         self.vehicles.pop(vehicle_id, None)
 
     def flight_controller(self, vehicle_id: str) -> SimFlightController:
-        """A :class:`~dronefleet.drone.fc.sim.SimFlightController` for one of the vehicles."""
-        from dronefleet.drone.fc.sim import SimFlightController
+        """A :class:`~.flight_controller.SimFlightController` for one of the vehicles."""
+        from dronefleet.sim.flight_controller import SimFlightController
 
         return SimFlightController(self.vehicles[vehicle_id], self.clock)
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import pytest
 
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.simfleet import SimFleet
 from support.drones import Operator
 
 pytestmark = pytest.mark.integration

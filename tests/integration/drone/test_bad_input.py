@@ -16,13 +16,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet
 from dronefleet.geo.types import LLA
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
 from dronefleet.messaging.embedded import EmbeddedBroker
 from dronefleet.messaging.topics import Channel, Direction
+from dronefleet.simfleet import SimFleet
 
 pytestmark = pytest.mark.integration
 DRONE = "QUAD_FUZZ"

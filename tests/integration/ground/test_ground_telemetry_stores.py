@@ -12,9 +12,10 @@ import pytest
 from ground_procs import influxd
 
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet, homes_around
 from dronefleet.geo.types import LLA
 from dronefleet.ground.services import GroundServices
+from dronefleet.sim.homes import homes_around
+from dronefleet.simfleet import SimFleet
 from support.brokers import mosquitto
 
 pytestmark = pytest.mark.integration

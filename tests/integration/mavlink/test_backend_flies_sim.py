@@ -10,11 +10,11 @@ import os
 
 import pytest
 
-from dronefleet.drone.fc.base import FcError, FlightMode
-from dronefleet.drone.fc.mavlink import items as mi
 from dronefleet.drone.fc.mavlink import open_flight_controller
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.mavlink import items as mi
+from dronefleet.vehicle.base import FcError, FlightMode
 
 from .conftest import HOME
 

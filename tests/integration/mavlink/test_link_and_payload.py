@@ -7,8 +7,8 @@ import itertools
 
 import pytest
 
-from dronefleet.drone.fc.base import FcError
 from dronefleet.drone.fc.mavlink import open_flight_controller, payload
+from dronefleet.vehicle.base import FcError
 
 from .conftest import HOME
 

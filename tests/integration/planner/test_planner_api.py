@@ -12,12 +12,12 @@ import httpx
 import pytest
 
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet
 from dronefleet.experiments.scenarios import rectangle
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.manager.auth import Role, TokenBook
 from dronefleet.ground.services import GroundServices
+from dronefleet.simfleet import SimFleet
 
 pytestmark = pytest.mark.integration
 HOME = LLA(40.63, -8.659, 10.0)

@@ -18,12 +18,12 @@ import pytest
 from dronefleet.drone.app import DroneApp
 from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.fc import mavlink as mavlink_fc
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.experiments.fleets import free_udp_port
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
+from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.sim.mavlink import MavlinkSimServer
 from dronefleet.sim.world import SimWorld
 from support.brokers import mosquitto

@@ -12,14 +12,14 @@ import time
 
 import pytest
 
-from dronefleet.drone.fc.base import FcError
 from dronefleet.drone.fc.uavtalk import Refused, UAVTalkLink, open_flight_controller
-from dronefleet.drone.fc.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
-from dronefleet.drone.fc.uavtalk.registry import default_registry
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
+from dronefleet.protocols.uavtalk.registry import default_registry
 from dronefleet.sim.uavtalk import UAVTalkServer
 from dronefleet.sim.world import SimWorld
+from dronefleet.vehicle.base import FcError
 
 pytestmark = pytest.mark.integration
 

@@ -14,12 +14,12 @@ import pytest
 
 from dronefleet.clock import wait_until
 from dronefleet.drone.gear import GearManager, telemetry_field
-from dronefleet.drone.payload import Reading
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
 from dronefleet.messaging.rpc import Requester
 from dronefleet.messaging.topics import Channel, Direction
+from dronefleet.vehicle.payload import Reading
 
 DRONE = "QUAD_1"
 GEAR_IN = topics.topic(DRONE, Channel.GEAR, Direction.IN)

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import pytest
 
-from dronefleet.drone.fc.mavlink import items as mi
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.modes import CopterMode
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.mavlink import items as mi
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.mavlink.copter import CopterEvents, SimCopter
 from dronefleet.sim.mavlink.handlers import CommandHandler

@@ -8,9 +8,9 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dronefleet.drone.fc.mavlink import items as mi
-from dronefleet.drone.fc.mavlink.codec import Encoder, FrameDecoder, to_dict
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink import items as mi
+from dronefleet.protocols.mavlink.codec import Encoder, FrameDecoder, to_dict
+from dronefleet.protocols.mavlink.codec import dialect as mav
 
 
 def samples() -> list:

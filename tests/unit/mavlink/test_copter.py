@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from dronefleet.drone.fc.mavlink import items as mi
-from dronefleet.drone.fc.mavlink.modes import CopterMode
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.mavlink import items as mi
+from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.mavlink.copter import CopterEvents, Refused, SimCopter
 from dronefleet.sim.vehicle import SimVehicle

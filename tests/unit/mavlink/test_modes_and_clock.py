@@ -6,9 +6,8 @@ import asyncio
 
 import pytest
 
-from dronefleet.drone.fc.base import FlightMode
 from dronefleet.drone.fc.mavlink.clock import AutopilotClock
-from dronefleet.drone.fc.mavlink.modes import (
+from dronefleet.protocols.mavlink.modes import (
     Autopilot,
     CopterMode,
     Px4Auto,
@@ -19,6 +18,7 @@ from dronefleet.drone.fc.mavlink.modes import (
     px4_custom_mode,
     set_mode_params,
 )
+from dronefleet.vehicle.base import FlightMode
 
 
 @pytest.mark.parametrize("autopilot", [Autopilot.ARDUPILOT, Autopilot.PX4])

@@ -19,9 +19,9 @@ from dronefleet.ground.planner.estimate import (
     estimate,
     rest_to_within_s,
 )
-from dronefleet.sim.battery import Battery
 from dronefleet.sim.vehicle import SimVehicle
 from dronefleet.sim.world import SimWorld
+from dronefleet.vehicle.battery import Battery
 
 POLL_S = 0.1  # the Mission Worker's wait_for_flight polling (DroneConfig.wait_poll_s)
 

@@ -7,10 +7,10 @@ import statistics
 
 import pytest
 
-from dronefleet.drone.fc.base import FlightMode
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import NED
 from dronefleet.sim import SimVehicle, VehicleError, Wind
+from dronefleet.vehicle.base import FlightMode
 
 
 def test_a_full_pack_reads_16_8_v_and_sags_under_load(home, hovering) -> None:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from dronefleet.drone.fc.base import FcError, FlightMode
 from dronefleet.geo.types import NED
 from dronefleet.sim import SimVehicle, VehicleError
+from dronefleet.vehicle.base import FcError, FlightMode
 
 
 def test_arming_takes_three_seconds(vehicle: SimVehicle, fly) -> None:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from dronefleet.drone.fc.base import FcError, FlightController, FlightMode
-from dronefleet.drone.fc.sim import SimFlightController
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.sim import SimWorld
+from dronefleet.sim.flight_controller import SimFlightController
+from dronefleet.vehicle.base import FcError, FlightController, FlightMode
 
 EXPECTED_KEYS = {
     "lat", "lon", "alt_m", "relative_alt_m", "vn", "ve", "vd", "roll_deg", "pitch_deg",

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from dronefleet.drone.payload import Camera, Sensor
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.sim import GasField, GasSensor, Plume, SimCamera
+from dronefleet.vehicle.payload import Camera, Sensor
 
 
 def test_the_gas_field_peaks_at_a_plume_centre(home: LLA) -> None:

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dronefleet.drone.fc.uavtalk.framing import (
+from dronefleet.protocols.uavtalk.framing import (
     SYNC,
     Frame,
     FrameError,
@@ -24,8 +24,8 @@ from dronefleet.drone.fc.uavtalk.framing import (
     decode_frame,
     encode_frame,
 )
-from dronefleet.drone.fc.uavtalk.objects import FieldType, ObjectDef
-from dronefleet.drone.fc.uavtalk.registry import default_registry
+from dronefleet.protocols.uavtalk.objects import FieldType, ObjectDef
+from dronefleet.protocols.uavtalk.registry import default_registry
 
 REGISTRY = default_registry()
 MULTI = REGISTRY.multi_instance

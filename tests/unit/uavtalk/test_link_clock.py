@@ -9,7 +9,7 @@ import pytest
 
 from dronefleet.clock import Clock
 from dronefleet.drone.fc.uavtalk.clock import LinkClock
-from dronefleet.drone.fc.uavtalk.link import parse_tcp_url
+from dronefleet.protocols.uavtalk.address import parse_tcp_url
 
 
 async def feed(clock: LinkClock, start_s: float, rate: float, wall_s: float) -> None:

@@ -8,8 +8,8 @@ import dataclasses
 
 import pytest
 
-from dronefleet.drone.fc.uavtalk.objects import FieldDef, FieldType, ObjectDef, object_id
-from dronefleet.drone.fc.uavtalk.registry import (
+from dronefleet.protocols.uavtalk.objects import FieldDef, FieldType, ObjectDef, object_id
+from dronefleet.protocols.uavtalk.registry import (
     DefinitionError,
     ObjectRegistry,
     default_registry,

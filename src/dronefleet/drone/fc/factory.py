@@ -1,9 +1,9 @@
 """Choosing a flight-controller backend by name (``--fc sim|mavlink|uavtalk``).
 
 Each non-sim backend module exposes ``async def open_flight_controller(url: str, **options)``
-returning a connected :class:`~dronefleet.drone.fc.base.FlightController`, plus optionally
+returning a connected :class:`~dronefleet.vehicle.base.FlightController`, plus optionally
 ``payload(fc) -> (sensors, camera)`` for the Gear Manager. The sim backend is built by
-:class:`~dronefleet.drone.simulated.SimFleet` instead, because its vehicles live in-process.
+:class:`~dronefleet.simfleet.SimFleet` instead, because its vehicles live in-process.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from dronefleet.drone.fc.base import FlightController
+from dronefleet.vehicle.base import FlightController
 
 BACKENDS = {
     "mavlink": "dronefleet.drone.fc.mavlink",

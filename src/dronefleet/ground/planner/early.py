@@ -10,6 +10,7 @@ the old one leaves, and the handover gap is near zero instead of arming + climb 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 from dronefleet.geo.types import LLA
@@ -32,12 +33,27 @@ async def check(planner: Any, record: MissionRecord, leg: Leg) -> None:
         planner._checking.discard(leg.leg_id)
 
 
-async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
+def _watched(record: MissionRecord, leg: Leg) -> bool:
+    """Whether ``leg`` is one early replacement looks after (active, working, not handed over)."""
     if not record.options.get("early_replacement", True) or record.terminal:
-        return
+        return False
     if leg.role in ("recovery", "leaving") or not leg.active:
-        return
-    if any(h["from_leg"] == leg.leg_id for h in record.handovers):
+        return False
+    return not any(h["from_leg"] == leg.leg_id for h in record.handovers)
+
+
+def _units_within(groups: list[list[int]], fits: Callable[[list[int]], bool]) -> int:
+    """How many leading units of work ``fits`` still accepts (each unit whole)."""
+    keep = 0
+    for n in range(1, len(groups) + 1):
+        if not fits([i for g in groups[:n] for i in g]):
+            break
+        keep = n
+    return keep
+
+
+async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
+    if not _watched(record, leg):
         return
     latest = planner.latest.get(leg.drone_id)
     if latest is None:
@@ -64,13 +80,9 @@ async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
     if can_finish(cost(left), reserve_pct=planner.reserve_pct)[0]:
         return
     groups = units(work, left)
-    keep = 0
-    for n in range(1, len(groups) + 1):
-        if not can_finish(
-            cost([i for g in groups[:n] for i in g]), reserve_pct=planner.reserve_pct
-        )[0]:
-            break
-        keep = n
+    keep = _units_within(
+        groups, lambda indices: can_finish(cost(indices), reserve_pct=planner.reserve_pct)[0]
+    )
     kept = [i for g in groups[:keep] for i in g]
     rest = [i for g in groups[keep:] for i in g]
     t_old = cost(kept).duration_s if kept else 0.0

@@ -1,14 +1,14 @@
 """How long a drone takes to fly a list of mission steps, and how much battery it uses.
 
 The Mission Planner (seed 4.2.4) refuses missions a battery cannot finish and shares work by time,
-so it needs the flight time of steps before they are flown. This module replays the steps with
-the simulator's own vehicle model (:mod:`dronefleet.sim.kinematics`, :mod:`dronefleet.sim.battery`):
-trapezoidal legs (2.5 m/s², 10 m/s; climb 2 m/s, descent 1.5 m/s), horizontal and vertical at
-once; ``wait_for_flight`` ends inside the tolerance cylinder (Algorithm 1, 2 m) on the Mission
-Worker's 0.1 s polling, so the next leg starts with the speed carried from this one. Straight
-legs are solved in closed form; when a leg turns (speed across the new direction) the few seconds
-of the turn are stepped with the simulator's own position controller. Current: hover, plus
-forward flight and climb, as the sim's battery model draws it.
+so it needs the flight time of steps before they are flown. This module replays the steps with the
+vehicle model the simulator flies too (:mod:`dronefleet.vehicle.kinematics`,
+:mod:`dronefleet.vehicle.battery`): trapezoidal legs (2.5 m/s², 10 m/s; climb 2 m/s, descent 1.5
+m/s), horizontal and vertical at once; ``wait_for_flight`` ends inside the tolerance cylinder
+(Algorithm 1, 2 m) on the Mission Worker's 0.1 s polling, so the next leg starts with the speed
+carried from this one. Straight legs are solved in closed form; when a leg turns (speed across the
+new direction) the few seconds of the turn are stepped with the simulator's own position
+controller. Current: hover, plus forward flight and climb, as the sim's battery model draws it.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Any, NamedTuple
 
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
-from dronefleet.sim.battery import Battery
-from dronefleet.sim.kinematics import FlightLimits, Kinematics
+from dronefleet.vehicle.battery import Battery
+from dronefleet.vehicle.kinematics import FlightLimits, Kinematics
 
 _TURN_MPS = 0.25  # speed across the leg above which the turn is stepped, not solved
 _TURN_DT_S = 0.05  # the sim world's step

@@ -15,10 +15,10 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.items import ABSOLUTE, MissionItem
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.items import ABSOLUTE, MissionItem
 from dronefleet.sim.vehicle import MIN_TARGET_ALT_M, VehicleError
 
 if TYPE_CHECKING:

@@ -25,10 +25,10 @@ import logging
 from dataclasses import replace
 from typing import Any
 
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.items import MissionItem
-from dronefleet.drone.fc.mavlink.modes import CopterMode
 from dronefleet.geo.types import NED
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.items import MissionItem
+from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.mavlink.auto import MissionRunner
 from dronefleet.sim.mavlink.params import ParamTable

@@ -16,8 +16,8 @@ import logging
 from typing import Any
 
 from dronefleet.clock import monotonic
-from dronefleet.drone.fc.mavlink.codec import Encoder, FrameDecoder, Message, text_field
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.codec import Encoder, FrameDecoder, Message, text_field
+from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.sim.gasfield import GasSensor
 from dronefleet.sim.mavlink.copter import CopterEvents, SimCopter
 from dronefleet.sim.mavlink.handlers import CommandHandler

@@ -13,11 +13,11 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from dronefleet.drone.fc.mavlink.codec import Message
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.modes import CopterMode
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.mavlink.codec import Message
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.mavlink.copter import Refused
 
 if TYPE_CHECKING:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.codec import dialect as mav
 
 _INT32 = mav.MAV_PARAM_TYPE_INT32
 _REAL32 = mav.MAV_PARAM_TYPE_REAL32

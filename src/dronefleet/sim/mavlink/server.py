@@ -13,10 +13,10 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from dronefleet.drone.simulated import homes_around
 from dronefleet.geo.types import LLA
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.gasfield import GasSensor
+from dronefleet.sim.homes import homes_around
 from dronefleet.sim.mavlink.copter import SimCopter
 from dronefleet.sim.mavlink.endpoint import VehicleEndpoint
 from dronefleet.sim.mavlink.params import ParamTable

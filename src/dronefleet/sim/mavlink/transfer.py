@@ -13,9 +13,9 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from dronefleet.clock import monotonic
-from dronefleet.drone.fc.mavlink.codec import Message
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.items import MISSION, MissionItem
+from dronefleet.protocols.mavlink.codec import Message
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.items import MISSION, MissionItem
 
 if TYPE_CHECKING:
     from dronefleet.sim.mavlink.copter import SimCopter

@@ -16,9 +16,9 @@ import argparse
 import asyncio
 from typing import Any
 
-from dronefleet.drone.fc.uavtalk.link import parse_tcp_url
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.uavtalk.address import parse_tcp_url
 
 DEFAULT_URL = "tcp:127.0.0.1:9000"
 DEFAULT_HOME = LLA(40.63, -8.659, 10.0)  # the seed's field at the University of Aveiro

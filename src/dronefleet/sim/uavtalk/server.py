@@ -20,12 +20,12 @@ import contextlib
 import logging
 from typing import Any
 
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
-from dronefleet.drone.fc.uavtalk.objects import ObjectDef
-from dronefleet.drone.fc.uavtalk.registry import ObjectRegistry, default_registry
+from dronefleet.protocols.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
+from dronefleet.protocols.uavtalk.objects import ObjectDef
+from dronefleet.protocols.uavtalk.registry import ObjectRegistry, default_registry
 from dronefleet.sim.uavtalk.vehicle_objects import VehicleObjects
 from dronefleet.sim.world import SimWorld
+from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
 

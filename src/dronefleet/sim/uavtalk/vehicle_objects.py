@@ -20,12 +20,12 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from dronefleet.drone.fc.uavtalk.objects import ObjectDef
-from dronefleet.drone.fc.uavtalk.registry import ObjectRegistry
-from dronefleet.drone.fc.views import flight_battery_state
 from dronefleet.geo.types import NED
-from dronefleet.sim.kinematics import GRAVITY_MPS2
+from dronefleet.protocols.uavtalk.objects import ObjectDef
+from dronefleet.protocols.uavtalk.registry import ObjectRegistry
 from dronefleet.sim.vehicle import SimVehicle, VehicleError
+from dronefleet.vehicle.kinematics import GRAVITY_MPS2
+from dronefleet.vehicle.views import flight_battery_state
 
 _ACCEL_TEMPERATURE_C = 35.0
 

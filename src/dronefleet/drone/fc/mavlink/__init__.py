@@ -13,10 +13,10 @@ import logging
 from typing import Any
 
 from dronefleet.drone.fc.mavlink.controller import MavlinkFlightController
-from dronefleet.drone.fc.mavlink.items import MissionItem
 from dronefleet.drone.fc.mavlink.mission import MissionProgress
 from dronefleet.drone.fc.mavlink.payload import AutopilotCamera, NamedValueSensor
-from dronefleet.drone.payload import Camera, Sensor
+from dronefleet.protocols.mavlink.items import MissionItem
+from dronefleet.vehicle.payload import Camera, Sensor
 
 __all__ = [
     "AutopilotCamera",

@@ -2,7 +2,7 @@
 
 The MAVLink command protocol is fire-and-hope over a lossy radio: a command is resent (with its
 ``confirmation`` counter raised) until a COMMAND_ACK for it arrives. ``IN_PROGRESS`` acks extend
-the wait. A refusal raises :class:`~dronefleet.drone.fc.base.FcError` carrying the autopilot's
+the wait. A refusal raises :class:`~dronefleet.vehicle.base.FcError` carrying the autopilot's
 own reason — the STATUSTEXT it sent alongside the refusal (e.g. "Arm: battery too low") — so the
 Drone Controller can pass it to the operator as the seed's controller did with dRonin's answers.
 """
@@ -12,10 +12,10 @@ from __future__ import annotations
 import asyncio
 
 from dronefleet.clock import monotonic
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.mavlink.codec import Message, command_name, result_name
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
+from dronefleet.protocols.mavlink.codec import Message, command_name, result_name
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.vehicle.base import FcError
 
 #: How long a refusal waits for its STATUSTEXT when the ACK came first (wall seconds).
 _REASON_GRACE_S = 0.15

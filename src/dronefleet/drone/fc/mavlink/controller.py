@@ -19,21 +19,21 @@ import math
 from typing import Any
 
 from dronefleet.clock import monotonic
-from dronefleet.drone.fc.base import FcError, FlightMode
 from dronefleet.drone.fc.mavlink import objects, session
 from dronefleet.drone.fc.mavlink.clock import AutopilotClock
-from dronefleet.drone.fc.mavlink.codec import Message, text_field
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.drone.fc.mavlink.commands import CommandSender
 from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
 from dronefleet.drone.fc.mavlink.mission import MissionClient
-from dronefleet.drone.fc.mavlink.modes import (
+from dronefleet.drone.fc.mavlink.state import VehicleView, is_armed
+from dronefleet.geo.types import LLA
+from dronefleet.protocols.mavlink.codec import Message, text_field
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.modes import (
     Autopilot,
     custom_mode_for,
     set_mode_params,
 )
-from dronefleet.drone.fc.mavlink.state import VehicleView, is_armed
-from dronefleet.geo.types import LLA
+from dronefleet.vehicle.base import FcError, FlightMode
 
 log = logging.getLogger(__name__)
 

@@ -21,8 +21,8 @@ from typing import Any
 from pymavlink import mavutil
 
 from dronefleet.clock import monotonic
-from dronefleet.drone.fc.mavlink.codec import Message, text_field
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.codec import Message, text_field
+from dronefleet.protocols.mavlink.codec import dialect as mav
 
 log = logging.getLogger(__name__)
 

@@ -16,14 +16,14 @@ import contextlib
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.mavlink.codec import Message
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.drone.fc.mavlink.commands import CommandSender
-from dronefleet.drone.fc.mavlink.items import ABSOLUTE, MISSION, MissionItem
 from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
-from dronefleet.drone.fc.mavlink.modes import Autopilot
 from dronefleet.geo.types import LLA
+from dronefleet.protocols.mavlink.codec import Message
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.items import ABSOLUTE, MISSION, MissionItem
+from dronefleet.protocols.mavlink.modes import Autopilot
+from dronefleet.vehicle.base import FcError
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,11 +12,11 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.codec import message_id, to_dict
-from dronefleet.drone.fc.views import flight_battery_state
 from dronefleet.geo.ned import lla_to_ned
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.codec import message_id, to_dict
+from dronefleet.vehicle.base import FcError
+from dronefleet.vehicle.views import flight_battery_state
 
 if TYPE_CHECKING:
     from dronefleet.drone.fc.mavlink.controller import MavlinkFlightController

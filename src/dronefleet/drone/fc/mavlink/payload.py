@@ -8,9 +8,9 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING, Any
 
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.payload import Reading
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.vehicle.base import FcError
+from dronefleet.vehicle.payload import Reading
 
 if TYPE_CHECKING:
     from dronefleet.drone.fc.mavlink.controller import MavlinkFlightController

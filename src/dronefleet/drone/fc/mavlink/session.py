@@ -12,11 +12,11 @@ from __future__ import annotations
 import asyncio
 import logging
 
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.mavlink.codec import Message, message_id, text_field
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
 from dronefleet.drone.fc.mavlink.commands import CommandSender
 from dronefleet.drone.fc.mavlink.link import MavlinkLink
+from dronefleet.protocols.mavlink.codec import Message, message_id, text_field
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
 

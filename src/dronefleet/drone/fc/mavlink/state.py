@@ -12,7 +12,13 @@ from __future__ import annotations
 import math
 from collections.abc import AsyncIterator
 
-from dronefleet.drone.fc.base import (
+from dronefleet.drone.fc.mavlink.clock import AutopilotClock
+from dronefleet.drone.fc.mavlink.link import MavlinkLink
+from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.mavlink.codec import Message
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.modes import Autopilot, decode_mode, mode_name
+from dronefleet.vehicle.base import (
     Attitude,
     BatteryState,
     FcError,
@@ -20,12 +26,6 @@ from dronefleet.drone.fc.base import (
     VehicleState,
     telemetry_sample,
 )
-from dronefleet.drone.fc.mavlink.clock import AutopilotClock
-from dronefleet.drone.fc.mavlink.codec import Message
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
-from dronefleet.drone.fc.mavlink.link import MavlinkLink
-from dronefleet.drone.fc.mavlink.modes import Autopilot, decode_mode, mode_name
-from dronefleet.geo.types import LLA, NED
 
 _IN_AIR_STATES = {
     mav.MAV_LANDED_STATE_IN_AIR,

@@ -8,7 +8,7 @@ controller, exchanging UAVObjects defined in XML. The pieces, bottom up:
 * :mod:`.registry` — loading the definitions from ``definitions/*.xml``;
 * :mod:`.link` — the TCP session: requests, acked writes with retries, subscriptions;
 * :mod:`.clock` — vehicle time from the autopilot's ``SystemStats``;
-* :mod:`.backend` — the :class:`~dronefleet.drone.fc.base.FlightController`.
+* :mod:`.backend` — the :class:`~dronefleet.vehicle.base.FlightController`.
 
 ``open_flight_controller("tcp:HOST:PORT")`` is what ``dronefleet drone --fc uavtalk --fc-url``
 calls (see :mod:`dronefleet.drone.fc.factory`). A serial dRonin board can be reached through a
@@ -21,8 +21,9 @@ from __future__ import annotations
 from typing import Any
 
 from dronefleet.drone.fc.uavtalk.backend import UAVTalkFlightController, si_view
-from dronefleet.drone.fc.uavtalk.link import LinkError, Refused, UAVTalkLink, parse_tcp_url
-from dronefleet.drone.fc.uavtalk.registry import ObjectRegistry, default_registry
+from dronefleet.drone.fc.uavtalk.link import LinkError, Refused, UAVTalkLink
+from dronefleet.protocols.uavtalk.address import parse_tcp_url
+from dronefleet.protocols.uavtalk.registry import ObjectRegistry, default_registry
 
 __all__ = [
     "LinkError",

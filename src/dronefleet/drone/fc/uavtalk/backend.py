@@ -21,7 +21,13 @@ import math
 from collections.abc import AsyncIterator
 from typing import Any
 
-from dronefleet.drone.fc.base import (
+from dronefleet.drone.fc.uavtalk.clock import LinkClock
+from dronefleet.drone.fc.uavtalk.link import LinkError, UAVTalkLink
+from dronefleet.geo.ned import lla_to_ned
+from dronefleet.geo.types import LLA, NED
+from dronefleet.protocols.uavtalk.objects import FieldType, ObjectDef
+from dronefleet.protocols.uavtalk.registry import ObjectRegistry
+from dronefleet.vehicle.base import (
     Attitude,
     BatteryState,
     FcError,
@@ -29,12 +35,6 @@ from dronefleet.drone.fc.base import (
     VehicleState,
     telemetry_sample,
 )
-from dronefleet.drone.fc.uavtalk.clock import LinkClock
-from dronefleet.drone.fc.uavtalk.link import LinkError, UAVTalkLink
-from dronefleet.drone.fc.uavtalk.objects import FieldType, ObjectDef
-from dronefleet.drone.fc.uavtalk.registry import ObjectRegistry
-from dronefleet.geo.ned import lla_to_ned
-from dronefleet.geo.types import LLA, NED
 
 #: Objects fetched on connect so every getter has a value from the start.
 _INITIAL = (

@@ -18,10 +18,10 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any
 
-from dronefleet.drone.fc.base import FcError
-from dronefleet.drone.fc.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
-from dronefleet.drone.fc.uavtalk.objects import ObjectDef
-from dronefleet.drone.fc.uavtalk.registry import ObjectRegistry, default_registry
+from dronefleet.protocols.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
+from dronefleet.protocols.uavtalk.objects import ObjectDef
+from dronefleet.protocols.uavtalk.registry import ObjectRegistry, default_registry
+from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
 
@@ -37,15 +37,6 @@ class LinkError(FcError):
 
 class Refused(FcError):
     """The autopilot NACKed a request or write; the message carries its reason when known."""
-
-
-def parse_tcp_url(url: str) -> tuple[str, int]:
-    """``tcp:HOST:PORT`` (or ``tcp://HOST:PORT``) -> (host, port)."""
-    rest = url.removeprefix("tcp://").removeprefix("tcp:")
-    host, sep, port = rest.rpartition(":")
-    if not sep or not host or not port.isdigit() or rest == url:
-        raise ValueError(f"expected a UAVTalk URL like tcp:127.0.0.1:9000, got {url!r}")
-    return host, int(port)
 
 
 class UAVTalkLink:

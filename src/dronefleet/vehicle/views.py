@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from dronefleet.drone.fc.base import BatteryState
+from dronefleet.vehicle.base import BatteryState
 
 
 def flight_battery_state(bat: BatteryState) -> dict[str, Any]:

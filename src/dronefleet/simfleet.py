@@ -9,16 +9,14 @@ from __future__ import annotations
 
 import asyncio
 import gc
-import math
 from typing import Any
 
 from dronefleet.drone.app import DroneApp
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.fc.sim import SimFlightController
-from dronefleet.geo.ned import ned_to_lla
-from dronefleet.geo.types import LLA, NED
+from dronefleet.geo.types import LLA
 from dronefleet.messaging.url import BrokerUrl
 from dronefleet.sim.camera import SimCamera
+from dronefleet.sim.flight_controller import SimFlightController
 from dronefleet.sim.gasfield import GasField, GasSensor, Plume
 from dronefleet.sim.world import SimWorld
 
@@ -113,20 +111,3 @@ class SimFleet:
         if start:
             await app.start()
         return app
-
-
-def homes_around(centre: LLA, count: int, spacing_m: float = 15.0) -> list[LLA]:
-    """``count`` home points on a circle around ``centre``, ``spacing_m`` apart."""
-    if count <= 1:
-        return [centre][:count]
-    radius = spacing_m / (2 * math.sin(math.pi / count))
-    return [
-        ned_to_lla(
-            NED(
-                radius * math.cos(2 * math.pi * i / count),
-                radius * math.sin(2 * math.pi * i / count),
-            ),
-            centre,
-        )
-        for i in range(count)
-    ]

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from dronefleet.drone.fc.mavlink.codec import Message
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.codec import Message
+from dronefleet.protocols.mavlink.codec import dialect as mav
 
 RELATIVE = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 ABSOLUTE = mav.MAV_FRAME_GLOBAL_INT

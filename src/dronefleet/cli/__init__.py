@@ -15,10 +15,10 @@ from dronefleet import __version__
 
 #: Modules that contribute subcommands. A missing one (a room not built yet) is skipped.
 COMMAND_MODULES = (
-    "dronefleet.drone.cli",
-    "dronefleet.sim.cli",
-    "dronefleet.ground.cli",
-    "dronefleet.experiments.cli",
+    "dronefleet.cli.drone",
+    "dronefleet.cli.sim",
+    "dronefleet.cli.ground",
+    "dronefleet.cli.experiments",
     "dronefleet.demo",
 )
 

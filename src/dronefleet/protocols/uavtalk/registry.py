@@ -14,7 +14,7 @@ from collections.abc import Iterable, Iterator
 from functools import cache
 from pathlib import Path
 
-from dronefleet.drone.fc.uavtalk.objects import FieldDef, FieldType, ObjectDef
+from dronefleet.protocols.uavtalk.objects import FieldDef, FieldType, ObjectDef
 
 DEFINITIONS_DIR = Path(__file__).with_name("definitions")
 _XML_TYPES = {t.name.lower(): t for t in FieldType}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import bisect
 
-from dronefleet.drone.fc.base import BatteryState
+from dronefleet.vehicle.base import BatteryState
 
 #: Open-circuit voltage of one LiPo cell against state of charge (0..1): 4.2 V full, 3.3 V empty.
 _OCV_SOC = (0.0, 0.05, 0.10, 0.20, 0.40, 0.60, 0.80, 0.90, 1.0)

@@ -13,19 +13,19 @@ import math
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
-from dronefleet.drone.fc.base import (
+from dronefleet.geo.ned import lla_to_ned
+from dronefleet.geo.types import LLA, NED
+from dronefleet.sim.clock import SimClock
+from dronefleet.sim.vehicle import SimVehicle
+from dronefleet.vehicle.base import (
     Attitude,
     BatteryState,
     FcError,
     VehicleState,
     telemetry_sample,
 )
-from dronefleet.drone.fc.views import flight_battery_state
-from dronefleet.geo.ned import lla_to_ned
-from dronefleet.geo.types import LLA, NED
-from dronefleet.sim.clock import SimClock
-from dronefleet.sim.kinematics import GRAVITY_MPS2
-from dronefleet.sim.vehicle import SimVehicle
+from dronefleet.vehicle.kinematics import GRAVITY_MPS2
+from dronefleet.vehicle.views import flight_battery_state
 
 #: How often waits on the vehicle look at it again (vehicle seconds; one physics step).
 _POLL_S = 0.05

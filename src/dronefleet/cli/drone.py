@@ -111,8 +111,8 @@ def run(args: argparse.Namespace) -> int:
 async def _serve(config, args: argparse.Namespace) -> int:
     if args.fc != "sim":
         return await _serve_autopilot(config, args)
-    from dronefleet.drone.simulated import SimFleet
     from dronefleet.messaging.client import BrokerUnavailable
+    from dronefleet.simfleet import SimFleet
 
     stop = stop_event()
     async with SimFleet(speedup=args.speedup, plumes=args.plume) as fleet:
@@ -132,9 +132,9 @@ async def _serve(config, args: argparse.Namespace) -> int:
 async def _serve_autopilot(config, args: argparse.Namespace) -> int:
     """The drone software on a real (or MAVLink/UAVTalk-simulated) autopilot."""
     from dronefleet.drone.app import DroneApp
-    from dronefleet.drone.fc.base import FcError
     from dronefleet.drone.fc.factory import BackendUnavailable, open_flight_controller
     from dronefleet.messaging.client import BrokerUnavailable
+    from dronefleet.vehicle.base import FcError
 
     if not args.fc_url:
         print(f"dronefleet drone: --fc {args.fc} needs --fc-url", file=sys.stderr)

@@ -14,7 +14,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from dronefleet.drone.cli import DEFAULT_HOME, parse_lla, parse_plume
+from dronefleet.cli.drone import DEFAULT_HOME, parse_lla, parse_plume
 from dronefleet.signals import stop_event
 
 

@@ -11,15 +11,15 @@ step; today ArduPilot and PX4 are the two that matter):
   single targets in AUTO.LOITER with MAV_CMD_DO_REPOSITION and takes off with NAV_TAKEOFF in
   AUTO.TAKEOFF (altitude AMSL) instead — see :mod:`.controller`.
 
-Everything above the backend sees only :class:`~dronefleet.drone.fc.base.FlightMode`.
+Everything above the backend sees only :class:`~dronefleet.vehicle.base.FlightMode`.
 """
 
 from __future__ import annotations
 
 import enum
 
-from dronefleet.drone.fc.base import FlightMode
-from dronefleet.drone.fc.mavlink.codec import dialect as mav
+from dronefleet.protocols.mavlink.codec import dialect as mav
+from dronefleet.vehicle.base import FlightMode
 
 
 class Autopilot(enum.Enum):

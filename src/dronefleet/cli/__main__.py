@@ -1,0 +1,7 @@
+"""``python -m dronefleet.cli``: the ``dronefleet`` command."""
+
+import sys
+
+from dronefleet.cli import main
+
+sys.exit(main())
