@@ -69,6 +69,7 @@ def run_ground(args: argparse.Namespace) -> int:
 
 
 async def _ground(args: argparse.Namespace) -> int:
+    from dronefleet.ground.presence import GroundAlreadyRunning
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.client import BrokerUnavailable
 
@@ -84,6 +85,9 @@ async def _ground(args: argparse.Namespace) -> int:
     )
     try:
         await services.start()
+    except GroundAlreadyRunning as exc:
+        print(f"dronefleet ground: {exc}", file=sys.stderr)
+        return 2
     except (BrokerUnavailable, OSError, ValueError) as exc:
         print(f"dronefleet ground: {exc}", file=sys.stderr)
         return 1

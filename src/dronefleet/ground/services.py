@@ -23,6 +23,7 @@ from dronefleet.ground.manager.context import ManagerContext
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.manager.stream import StreamHub
 from dronefleet.ground.planner.service import MissionPlanner
+from dronefleet.ground.presence import GroundPresence
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.connector import TelemetryConnector
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
@@ -101,6 +102,10 @@ class GroundServices:
         self._started.append(self.telemetry)
 
         url = self.broker_url
+        # One ground per broker: the planner's persistent session must not be taken over.
+        presence = GroundPresence(url, planner_id=self.planner_client_id)
+        await presence.start()
+        self._started.append(presence)
         self.identifier = DroneIdentifier(url, self.state, client_id=f"ground-identifier-{suffix}")
         self.connector = TelemetryConnector(
             url, self.telemetry, client_id=f"ground-telemetry-{suffix}"
