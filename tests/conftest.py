@@ -3,21 +3,17 @@
 from __future__ import annotations
 
 import asyncio
-import sys
-from pathlib import Path
 
 import pytest
 from hypothesis import settings
 
+from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.virtual_loop import VirtualTimeLoop
+from support.brokers import mosquitto
+
 # Wall time on these shared 2-core machines is noisy: no per-example deadlines anywhere.
 settings.register_profile("dronefleet", deadline=None)
 settings.load_profile("dronefleet")
-
-sys.path.insert(0, str(Path(__file__).parent))
-
-from dronefleet.messaging.embedded import EmbeddedBroker  # noqa: E402
-from dronefleet.virtual_loop import VirtualTimeLoop  # noqa: E402
-from support.brokers import mosquitto  # noqa: E402
 
 
 def pytest_asyncio_loop_factories(config, item):

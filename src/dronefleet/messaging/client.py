@@ -18,6 +18,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import aiomqtt
+
+# MQTT filter matching (``+``, ``#``, ``$`` topics) as the broker does it: paho's, not ours.
+from paho.mqtt.client import topic_matches_sub
 from pydantic import BaseModel
 
 from dronefleet.messaging.codec import encode
@@ -50,20 +53,6 @@ def _no_delay(client: aiomqtt.Client) -> None:
     sock: Any = client._client.socket()  # aiomqtt exposes no public handle on paho's socket
     with contextlib.suppress(OSError, AttributeError):
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-
-
-def matches(pattern: str, topic_name: str) -> bool:
-    """MQTT topic filter matching (``+`` one level, ``#`` the rest)."""
-    p_parts = pattern.split("/")
-    t_parts = topic_name.split("/")
-    for i, p in enumerate(p_parts):
-        if p == "#":
-            return True
-        if i >= len(t_parts):
-            return False
-        if p != "+" and p != t_parts[i]:
-            return False
-    return len(p_parts) == len(t_parts)
 
 
 class BrokerClient:
@@ -222,7 +211,7 @@ class BrokerClient:
 
     def _dispatch(self, topic_name: str, payload: bytes) -> None:
         for sub in self._subs:
-            if matches(sub.pattern, topic_name):
+            if topic_matches_sub(sub.pattern, topic_name):
                 try:
                     sub.queue.put_nowait((topic_name, payload))
                 except asyncio.QueueFull:

@@ -89,3 +89,7 @@ def parse(topic_name: str) -> DroneTopic:
         return DroneTopic(check_drone_id(drone_id), Channel(channel), Direction(direction))
     except ValueError as exc:
         raise TopicError(f"not a drone topic: {topic_name!r}") from exc
+
+
+#: What the Mission Planner tells the web apps (mission created, leg started, handover...).
+PLANNER_EVENTS = ground("planner", "events")

@@ -9,11 +9,10 @@ import time
 
 import httpx
 import pytest
-from ground_procs import drone_cmd, ground_cmd, process, stop, wait_http
-from test_ground_topology import wait_online
 
 from dronefleet.messaging.embedded import free_port
 from support.brokers import mosquitto
+from support.ground_procs import drone_cmd, ground_cmd, process, stop, wait_http, wait_online
 
 pytestmark = pytest.mark.integration
 

@@ -9,7 +9,6 @@ import time
 
 import httpx
 import pytest
-from ground_procs import influxd
 
 from dronefleet.drone.config import DroneConfig
 from dronefleet.geo.types import LLA
@@ -17,6 +16,7 @@ from dronefleet.ground.services import GroundServices
 from dronefleet.sim.homes import homes_around
 from dronefleet.simfleet import SimFleet
 from support.brokers import mosquitto
+from support.ground_procs import influxd
 
 pytestmark = pytest.mark.integration
 

@@ -10,16 +10,23 @@ from __future__ import annotations
 
 import secrets
 import subprocess
-import time
 from pathlib import Path
 
 import httpx
 import pytest
-from ground_procs import drone_cmd, dronefleet, ground_cmd, process, rabbit_mqtt_or_skip, wait_http
 
 from dronefleet.messaging.embedded import free_port
 from dronefleet.messaging.url import BrokerUrl
 from support.brokers import mosquitto
+from support.ground_procs import (
+    drone_cmd,
+    dronefleet,
+    ground_cmd,
+    process,
+    rabbit_mqtt_or_skip,
+    wait_http,
+    wait_online,
+)
 
 pytestmark = pytest.mark.integration
 
@@ -29,16 +36,6 @@ def bridge_conf(drone_id: str, ground: BrokerUrl) -> str:
     if ground.username:
         args += ["--username", ground.username, "--password", ground.password or ""]
     return subprocess.run(dronefleet(*args), check=True, capture_output=True, text=True).stdout
-
-
-def wait_online(api: httpx.Client, drone_id: str, timeout_s: float = 30.0) -> dict:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        r = api.get(f"/api/v1/drones/{drone_id}")
-        if r.status_code == 200 and r.json()["status"] == "online":
-            return r.json()
-        time.sleep(0.2)
-    raise AssertionError(f"{drone_id} never came online")
 
 
 def fly_through_bridge(tmp: Path, ground: BrokerUrl) -> None:

@@ -6,7 +6,7 @@ import asyncio
 
 import pytest
 
-from dronefleet.drone.fc.mavlink.clock import AutopilotClock
+from dronefleet.drone.fc.clock import AutopilotClock
 from dronefleet.protocols.mavlink.modes import (
     Autopilot,
     CopterMode,

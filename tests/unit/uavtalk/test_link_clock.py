@@ -1,4 +1,5 @@
-"""The vehicle clock of a UAVTalk autopilot follows SystemStats.FlightTime (docs/DESIGN.md §4)."""
+"""The vehicle clock of a UAVTalk autopilot follows SystemStats.FlightTime (docs/DESIGN.md §4); it
+is the one estimator every backend uses (drone/fc/clock.py)."""
 
 from __future__ import annotations
 
@@ -8,14 +9,14 @@ import time
 import pytest
 
 from dronefleet.clock import Clock
-from dronefleet.drone.fc.uavtalk.clock import LinkClock
+from dronefleet.drone.fc.clock import AutopilotClock as LinkClock
 from dronefleet.protocols.uavtalk.address import parse_tcp_url
 
 
 async def feed(clock: LinkClock, start_s: float, rate: float, wall_s: float) -> None:
     wall0 = time.monotonic()
     while (elapsed := time.monotonic() - wall0) < wall_s:
-        clock.observe(start_s + elapsed * rate)
+        clock.observe_s(start_s + elapsed * rate)
         await asyncio.sleep(0.01)
 
 
@@ -46,9 +47,9 @@ async def test_clock_never_runs_backwards_even_when_the_autopilot_reboots():
     clock = LinkClock()
     await feed(clock, 500.0, 1.0, 0.1)
     high = clock.now()
-    clock.observe(0.5)  # rebooted: FlightTime starts again
+    clock.observe_s(0.5)  # rebooted: FlightTime starts again
     assert clock.now() >= high
-    clock.observe(0.6)
+    clock.observe_s(0.6)
     assert clock.now() >= high
 
 

@@ -20,7 +20,7 @@ from dronefleet.ground.manager.context import ctx_of
 from dronefleet.ground.manager.errors import ApiError
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
-from dronefleet.messaging.topics import Channel, any_drone
+from dronefleet.messaging.topics import PLANNER_EVENTS, Channel, any_drone
 
 log = logging.getLogger(__name__)
 
@@ -32,7 +32,7 @@ KINDS = {
 }
 ALL_KINDS = frozenset({*KINDS.values(), "fleet", "mission"})
 #: The Mission Planner announces mission changes (state, handovers, extensions) here.
-PLANNER_EVENTS_TOPIC = "ground/planner/events"
+PLANNER_EVENTS_TOPIC = PLANNER_EVENTS
 QUEUE_SIZE = 1_000
 
 

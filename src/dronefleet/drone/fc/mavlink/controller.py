@@ -19,8 +19,8 @@ import math
 from typing import Any
 
 from dronefleet.clock import monotonic
+from dronefleet.drone.fc.clock import AutopilotClock
 from dronefleet.drone.fc.mavlink import objects, session
-from dronefleet.drone.fc.mavlink.clock import AutopilotClock
 from dronefleet.drone.fc.mavlink.commands import CommandSender
 from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
 from dronefleet.drone.fc.mavlink.mission import MissionClient

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import AsyncIterator
 
-from dronefleet.drone.fc.mavlink.clock import AutopilotClock
+from dronefleet.drone.fc.clock import AutopilotClock
 from dronefleet.drone.fc.mavlink.link import MavlinkLink
 from dronefleet.geo.types import LLA, NED
 from dronefleet.protocols.mavlink.codec import Message

@@ -21,7 +21,7 @@ import math
 from collections.abc import AsyncIterator
 from typing import Any
 
-from dronefleet.drone.fc.uavtalk.clock import LinkClock
+from dronefleet.drone.fc.clock import AutopilotClock
 from dronefleet.drone.fc.uavtalk.link import LinkError, UAVTalkLink
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA, NED
@@ -58,13 +58,13 @@ class UAVTalkFlightController:
             raise ValueError("telemetry rate must be positive")
         self.link = link
         self.telemetry_rate_hz = telemetry_rate_hz
-        self._clock = LinkClock()
+        self._clock = AutopilotClock()
         self._sequence = itertools.count(1)
         self._closed = False
         self._hooked = False
 
     @property
-    def clock(self) -> LinkClock:
+    def clock(self) -> AutopilotClock:
         return self._clock
 
     @property
@@ -86,7 +86,7 @@ class UAVTalkFlightController:
         await self.link.close()
 
     def _on_system_stats(self, _name: str, _instance: int, values: dict[str, Any]) -> None:
-        self._clock.observe(values["FlightTime"] / 1000.0)
+        self._clock.observe(values["FlightTime"])  # milliseconds since boot
 
     # -- commands ------------------------------------------------------------------------------
     async def _command(self, command: str, *, altitude_m: float = 0.0, force: bool = False) -> None:

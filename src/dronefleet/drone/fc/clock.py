@@ -1,4 +1,5 @@
-"""The autopilot's clock (docs/DESIGN.md §4): vehicle seconds from MAVLink ``time_boot_ms``.
+"""The autopilot's clock (docs/DESIGN.md §4): vehicle seconds from the autopilot's time since boot
+(MAVLink ``time_boot_ms``, UAVTalk ``SystemStats.FlightTime``), one estimator for every backend.
 
 Drone-side waiting (mission ``sleep`` steps, heartbeats, telemetry) must run on the vehicle's time
 so that a simulation sped up 20 times still reports its durations in vehicle seconds. The autopilot
@@ -17,7 +18,7 @@ from dronefleet.clock import monotonic, sleep_on_estimate
 #: Wall seconds of stamps kept for the rate estimate.
 _WINDOW_WALL_S = 3.0
 #: Shortest wall span over which a rate is trusted.
-_MIN_SPAN_WALL_S = 0.3
+_MIN_SPAN_WALL_S = 0.2
 #: A stamp this far behind the previous one means the autopilot rebooted.
 _REBOOT_JUMP_S = 1.0
 #: ... and once a reboot was commanded (stamps never go back by more than jitter otherwise).
@@ -49,10 +50,13 @@ class AutopilotClock:
     def synced(self) -> bool:
         return self._last_boot_s is not None
 
-    def observe(self, time_boot_ms: int, wall: float | None = None) -> None:
+    def observe(self, time_boot_ms: float, wall: float | None = None) -> None:
         """Take a ``time_boot_ms`` stamp from a message received at ``wall`` (monotonic)."""
+        self.observe_s(time_boot_ms / 1000.0, wall)
+
+    def observe_s(self, boot_s: float, wall: float | None = None) -> None:
+        """Take a time since boot, in seconds, received at ``wall`` (monotonic)."""
         wall = monotonic() if wall is None else wall
-        boot_s = time_boot_ms / 1000.0
         jump = _EXPECTED_JUMP_S if self._expect_reboot else _REBOOT_JUMP_S
         if self._last_boot_s is not None and boot_s < self._last_boot_s - jump:
             self._expect_reboot = False
@@ -77,6 +81,8 @@ class AutopilotClock:
         self._expect_reboot = True
 
     def now(self) -> float:
+        if self._last_boot_s is None:
+            return self._reported  # no stamp yet: the vehicle's time is not known to run
         t = self._base_s + (monotonic() - self._last_wall) * self._rate
         # Stamps arrive with jitter: never report time running backwards.
         self._reported = max(self._reported, t)

@@ -79,3 +79,13 @@ def influxd(tmp: Path) -> Iterator[str]:
     with process([INFLUXD, "-config", str(conf)], tmp / "influxd.log"):
         wait_port("127.0.0.1", http_port, timeout_s=20)
         yield f"influxdb://127.0.0.1:{http_port}/dronefleet"
+
+
+def wait_online(api: httpx.Client, drone_id: str, timeout_s: float = 30.0) -> dict:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        r = api.get(f"/api/v1/drones/{drone_id}")
+        if r.status_code == 200 and r.json()["status"] == "online":
+            return r.json()
+        time.sleep(0.2)
+    raise AssertionError(f"{drone_id} never came online")

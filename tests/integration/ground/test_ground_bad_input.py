@@ -11,12 +11,14 @@ from urllib.parse import quote
 
 import httpx
 import pytest
-from ground_fakes import FakeDrone, eventually
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.commands import CONTROL_COMMANDS
+from support.ground_fakes import FakeDrone, eventually
+
+pytestmark = pytest.mark.integration
 
 SETTINGS = settings(
     max_examples=60,

@@ -6,9 +6,12 @@ import asyncio
 import time
 
 import httpx
-from ground_fakes import FakeDrone, eventually
+import pytest
 
 from dronefleet.messaging.missions import encode_steps_base64
+from support.ground_fakes import FakeDrone, eventually
+
+pytestmark = pytest.mark.integration
 
 
 async def online(api: httpx.AsyncClient, drone_id: str) -> dict:

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import pytest
-from ground_fakes import FakeDrone, eventually
 
 from dronefleet.ground.fleet import DroneRecord, DroneStatus, LenientHeartbeat
 from dronefleet.ground.identifier import DroneIdentifier
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.state import StateStore
+from support.ground_fakes import FakeDrone, eventually
+
+pytestmark = pytest.mark.integration
 
 
 def hb(drone_id="Q1", interval_s=5.0):
