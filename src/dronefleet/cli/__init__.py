@@ -61,6 +61,20 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 130
+    except (OSError, ValueError, RuntimeError) as exc:
+        # A port in use, a folder that cannot be written, a broker that is not there: what went
+        # wrong in one line (issue 11); the traceback is for -v.
+        if args.verbose:
+            raise
+        print(f"dronefleet {args.command}: {_reason(exc)} (-v shows the details)", file=sys.stderr)
+        return 2
+
+
+def _reason(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f" ({exc.filename})" if exc.filename else ""
+        return f"{exc.strerror}{where}"
+    return str(exc) or type(exc).__name__
 
 
 if __name__ == "__main__":

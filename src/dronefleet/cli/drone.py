@@ -8,6 +8,7 @@ import contextlib
 import sys
 from pathlib import Path
 
+from dronefleet.cli.args import broker_url, positive_speedup
 from dronefleet.geo.types import LLA
 from dronefleet.signals import stop_event
 
@@ -45,7 +46,9 @@ def parse_plume(text: str) -> tuple[float, float, float, float]:
 
 def add_sim_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--home", type=parse_lla, default=parse_lla(DEFAULT_HOME), help="LAT,LON,ALT")
-    p.add_argument("--speedup", type=float, default=1.0, help="vehicle seconds per wall second")
+    p.add_argument(
+        "--speedup", type=positive_speedup, default=1.0, help="vehicle seconds per wall second"
+    )
     p.add_argument("--battery-pct", type=float, default=100.0, help="initial charge (sim)")
     p.add_argument(
         "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"
@@ -57,7 +60,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "drone", help="run one drone's software (controller, gear, fail-safe, logger)"
     )
     p.add_argument("--id", dest="drone_id", help="drone id (default: from the MAC address)")
-    p.add_argument("--broker", default="mqtt://127.0.0.1:1883", help="mqtt://user:pass@host:port")
+    p.add_argument(
+        "--broker",
+        type=broker_url,
+        default="mqtt://127.0.0.1:1883",
+        help="mqtt://user:pass@host:port",
+    )
     p.add_argument(
         "--fc",
         choices=["sim", "mavlink", "uavtalk"],

@@ -7,19 +7,22 @@ import asyncio
 import sys
 from pathlib import Path
 
+from dronefleet.cli.args import broker_url, port_number
 from dronefleet.signals import stop_event
 
 
 def _host_port(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
-    if not sep or not host or not port.isdigit() or not 0 <= int(port) < 65536:
+    if not sep or not host or not port.isdigit():
         raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}")
-    return host, int(port)
+    return host, port_number(port) if port != "0" else 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     g = sub.add_parser("ground", help="run the ground services (identifier, manager, telemetry)")
-    g.add_argument("--broker", default="mqtt://127.0.0.1:1883", help="ground broker URL")
+    g.add_argument(
+        "--broker", type=broker_url, default="mqtt://127.0.0.1:1883", help="ground broker URL"
+    )
     g.add_argument(
         "--store",
         default="sqlite:///dronefleet-telemetry.db",
@@ -85,12 +88,10 @@ async def _ground(args: argparse.Namespace) -> int:
     )
     try:
         await services.start()
-    except GroundAlreadyRunning as exc:
-        print(f"dronefleet ground: {exc}", file=sys.stderr)
+    except (GroundAlreadyRunning, BrokerUnavailable, OSError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        print(f"dronefleet ground: {reason}", file=sys.stderr)
         return 2
-    except (BrokerUnavailable, OSError, ValueError) as exc:
-        print(f"dronefleet ground: {exc}", file=sys.stderr)
-        return 1
     print(
         f"ground services on {services.http_url} (API docs: {services.http_url}/docs)", flush=True
     )

@@ -14,6 +14,7 @@ import contextlib
 import sys
 from pathlib import Path
 
+from dronefleet.cli.args import port_number, positive_speedup
 from dronefleet.cli.drone import DEFAULT_HOME, parse_lla, parse_plume
 from dronefleet.signals import stop_event
 
@@ -24,7 +25,7 @@ def parse_udp(text: str) -> tuple[str, int]:
     host, _, port = rest.rpartition(":")
     if scheme not in ("udp", "udpin") or not host or not port.isdigit():
         raise argparse.ArgumentTypeError(f"expected udp:HOST:PORT, got {text!r}")
-    return host, int(port)
+    return host, port_number(port)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +41,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--home", type=parse_lla, default=parse_lla(DEFAULT_HOME), help="LAT,LON,ALT")
     p.add_argument("--spacing-m", type=float, default=15.0, help="distance between homes")
-    p.add_argument("--speedup", type=float, default=1.0, help="vehicle seconds per wall second")
+    p.add_argument(
+        "--speedup", type=positive_speedup, default=1.0, help="vehicle seconds per wall second"
+    )
     p.add_argument("--battery-pct", type=float, default=100.0, help="initial charge")
     p.add_argument(
         "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"

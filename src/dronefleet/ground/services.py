@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import secrets
+import socket
 from pathlib import Path
 from typing import Any
 
@@ -149,8 +150,19 @@ class GroundServices:
             timeout_graceful_shutdown=2,
             timeout_keep_alive=2,
         )
+        # The socket is bound here, not by uvicorn, which logs a port in use and calls sys.exit:
+        # ours raises OSError ("Address already in use"), which the CLI reports in one line.
+        sock = socket.socket(socket.AF_INET6 if ":" in self.http_host else socket.AF_INET)
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind((self.http_host, self.http_port))
+        except OSError:
+            sock.close()
+            raise
         self._server = uvicorn.Server(config)
-        self._serve_task = asyncio.create_task(self._server.serve(), name="ground:http")
+        self._serve_task = asyncio.create_task(
+            self._server.serve(sockets=[sock]), name="ground:http"
+        )
         while not self._server.started:
             if self._serve_task.done():
                 self._serve_task.result()  # raises the reason (e.g. port in use)

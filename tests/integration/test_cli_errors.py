@@ -1,0 +1,58 @@
+"""Common mistakes on the command line get one line that says what is wrong and exit 2, never a
+traceback (issue 11: a non-mqtt:// broker URL, a port in use — 47 lines of traceback —, an
+unwritable state folder, MAVLink port 99999 and --speedup -1 all used to end in tracebacks)."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+
+import pytest
+
+from support.processes import dronefleet
+
+pytestmark = pytest.mark.integration
+
+
+def run(*args: str) -> tuple[int, str]:
+    done = subprocess.run(dronefleet(*args), capture_output=True, text=True, timeout=60)
+    return done.returncode, done.stderr
+
+
+def said(stderr: str) -> list[str]:
+    """What was said beyond argparse's usage lines."""
+    return [line for line in stderr.splitlines() if line and not line.startswith((" ", "usage:"))]
+
+
+@pytest.mark.parametrize(
+    ("args", "reason"),
+    [
+        (("ground", "--broker", "http://127.0.0.1:1883"), "scheme must be mqtt://"),
+        (("drone", "--broker", "127.0.0.1:notaport"), "invalid port"),
+        (("sim", "--count", "1", "--mavlink", "udp:127.0.0.1:99999"), "a port is 1-65535"),
+        (("demo", "--speedup", "-1"), "must be positive"),
+        (("drone", "--speedup", "-1"), "must be a positive number"),
+        (("demo", "--state-dir", "/etc/hostname/var"), "Not a directory"),
+    ],
+)
+def test_a_mistake_is_one_line_and_exit_2(args, reason):
+    code, stderr = run(*args)
+    assert code == 2, stderr
+    assert "Traceback" not in stderr
+    (line,) = said(stderr)
+    assert reason in line
+
+
+def test_a_port_in_use_is_one_line_and_exit_2(tmp_path, mosquitto_broker):
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code, stderr = run(
+            "ground", "--broker", str(mosquitto_broker), "--http", f"127.0.0.1:{port}",
+            "--state", str(tmp_path / "g.db"), "--store", f"sqlite:///{tmp_path}/t.db",
+        )  # fmt: skip
+    assert code == 2, stderr
+    assert "Traceback" not in stderr
+    (line,) = said(stderr)
+    assert "in use" in line
