@@ -135,7 +135,7 @@ class GapFiller:
         """
         path = polyline(points)
         tol = self.tolerance_m
-        covered = path.buffer(self.radius_m + tol, quad_segs=16)
+        covered = _band(points, self.radius_m + tol)
         found = []
         for gap in shapely.get_parts(area.difference(covered)):
             if gap.geom_type != "Polygon" or gap.area < tol * tol / 16:
@@ -209,3 +209,21 @@ def _near(path: shapely.Geometry, gap: Polygon, reach_m: float) -> shapely.Geome
     grow = math.hypot(maxx - minx, maxy - miny) + reach_m + 1e-6
     part = shapely.clip_by_rect(path, minx - grow, miny - grow, maxx + grow, maxy + grow)
     return path if part.is_empty else part
+
+
+#: Route points per piece when buffering the route (see :func:`_band`).
+BAND_PIECE = 16
+
+
+def _band(points: list[RoutePoint], radius_m: float) -> shapely.Geometry:
+    """Everything within ``radius_m`` of the route.
+
+    GEOS buffers one long zigzagging line slowly (a 9000-point route over a spiky area: 1.9 s,
+    most of its planning); the same band is the union of the buffers of short consecutive
+    pieces sharing their ends, which GEOS builds in a tenth of the time. Pieces of 16 points
+    were the fastest of 16 to 256 on that route."""
+    xy = np.array([p.xy for p in points])
+    if len(xy) < 2 * BAND_PIECE:
+        return polyline(points).buffer(radius_m, quad_segs=16)
+    pieces = [LineString(xy[i : i + BAND_PIECE + 1]) for i in range(0, len(xy) - 1, BAND_PIECE)]
+    return shapely.union_all(shapely.buffer(pieces, radius_m, quad_segs=16))
