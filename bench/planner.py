@@ -89,9 +89,10 @@ def gear(n: int = 2000, radius: float = 300.0, depth: float = 15.0) -> list[tupl
 
 
 def comb(n: int = 2000) -> list[tuple[float, float]]:
-    """A 30 m deep back with (n - 2) / 4 teeth 3 m wide, 3 m apart and 40 m long."""
-    teeth, pitch, tooth, base, length = (n - 2) // 4, 6.0, 3.0, 30.0, 40.0
-    out = [(0.0, 0.0), (teeth * pitch, 0.0)]
+    """A 30-40 m deep back with (n - 4) / 4 teeth 3 m wide, 3 m apart and 40 m long."""
+    teeth, pitch, tooth, base, length = (n - 4) // 4, 6.0, 3.0, 30.0, 40.0
+    width = teeth * pitch  # the back's underside is bevelled: 4 vertices
+    out = [(0.0, 0.0), (width / 3, -10.0), (2 * width / 3, -10.0), (width, 0.0)]
     for i in reversed(range(teeth)):
         x = i * pitch
         out += [(x + tooth, base), (x + tooth, base + length), (x, base + length), (x, base)]
