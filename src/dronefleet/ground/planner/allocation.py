@@ -7,8 +7,9 @@ preparation (arming, climb) when on the ground, transit to its first waypoint, t
 
 Shares are contiguous chunks of the boustrophedon route, so drones work in separate regions.
 The makespan is found by bisection: for a candidate time ``T`` and an order of drones along the
-route, the chunk starts reachable by the first ``m`` drones within ``T`` form a set that grows by
-intervals (numpy); every order is tried (drones are few: 5 drones, 120 orders).
+route, the chunk starts reachable by the first ``m`` drones within ``T`` are every allowed start
+up to some index (see ``_Search``), so one bisect per drone answers it; every order is tried, up
+to ``max_orders`` (5 drones: 120 orders; 10 drones: the first 720, sharing prefixes).
 """
 
 from __future__ import annotations
