@@ -1,15 +1,22 @@
 """How long the Mission Planner takes to plan an area, estimate it and share it among drones.
 
-Areas of 1e3, 1e4 and 1e5 m² (a concave field with a pond, automatic angle, 8 m spacing),
+First the figures of issue 11 ("planning fast enough for a fleet"): the 1 km² field at 10 m
+spacing planned and shared among 10 drones, stopping at every waypoint and flying through
+(target: plan + split within 200 ms each), and three worst-case 2000-vertex areas — a circle, a
+comb and a gear with 1000 spikes — planned with the automatic angle (target: 2 s each).
+
+Then areas of 1e3, 1e4 and 1e5 m² (a concave field with a pond, automatic angle, 8 m spacing),
 stopping at every waypoint and flying through; then the split of the 1e4 and 1e5 m² routes
 among 2 to 5 drones (every order of drones tried; batteries unlimited here).
 
-    .venv/bin/python bench/planner.py
+    .venv/bin/python bench/planner.py            # everything
+    .venv/bin/python bench/planner.py fleet      # only issue 11's figures (or: field, worst)
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Callable
 from typing import Any
@@ -32,7 +39,7 @@ def latlon(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     return [(p.lat, p.lon) for p in (FRAME.to_lla(NED(n, e)) for e, n in points)]
 
 
-def field(area_m2: float, fly_through: bool) -> AreaSpec:
+def field(area_m2: float, fly_through: bool, spacing_m: float = SPACING_M) -> AreaSpec:
     """An L-shaped field with a square pond, scaled to ``area_m2``."""
     outer = [(0, 0), (100, 0), (100, 60), (60, 60), (60, 100), (0, 100)]
     pond = [(20, 20), (35, 20), (35, 35), (20, 35)]
@@ -40,7 +47,7 @@ def field(area_m2: float, fly_through: bool) -> AreaSpec:
     return AreaSpec(
         polygon=latlon([(x * k, y * k) for x, y in outer]),
         holes=[latlon([(x * k, y * k) for x, y in pond])],
-        spacing_m=SPACING_M,
+        spacing_m=spacing_m,
         action="takepic",
         fly_through=fly_through,
     )
@@ -63,7 +70,70 @@ def team(count: int) -> list[DroneSlot]:
     return slots
 
 
-def main() -> None:
+# -- issue 11: a fleet's field and worst-case outlines ----------------------------------------
+def circle(n: int = 2000, radius: float = 300.0) -> list[tuple[float, float]]:
+    """A 300 m circle drawn with ``n`` vertices (a traced outline: far more than it needs)."""
+    return [
+        (radius * math.cos(2 * math.pi * k / n), radius * math.sin(2 * math.pi * k / n))
+        for k in range(n)
+    ]
+
+
+def gear(n: int = 2000, radius: float = 300.0, depth: float = 15.0) -> list[tuple[float, float]]:
+    """A 300 m disc with n/2 spikes 15 m deep and 1.9 m wide at the base."""
+    out = []
+    for k in range(n):
+        r = radius + depth * (k % 2)
+        out.append((r * math.cos(2 * math.pi * k / n), r * math.sin(2 * math.pi * k / n)))
+    return out
+
+
+def comb(n: int = 2000) -> list[tuple[float, float]]:
+    """A 30-40 m deep back with (n - 4) / 4 teeth 3 m wide, 3 m apart and 40 m long."""
+    teeth, pitch, tooth, base, length = (n - 4) // 4, 6.0, 3.0, 30.0, 40.0
+    width = teeth * pitch  # the back's underside is bevelled: 4 vertices
+    out = [(0.0, 0.0), (width / 3, -10.0), (2 * width / 3, -10.0), (width, 0.0)]
+    for i in reversed(range(teeth)):
+        x = i * pitch
+        out += [(x + tooth, base), (x + tooth, base + length), (x, base + length), (x, base)]
+    return out
+
+
+WORST = {"circle": circle, "comb": comb, "gear": gear}
+
+
+def fleet_field() -> None:
+    print(
+        f"{'1 km², 10 m':>12} {'mode':>12} {'waypoints':>9} {'plan ms':>8} {'split ms':>8}"
+        f" {'total ms':>8} {'makespan s':>10}"
+    )
+    drones = team(10)
+    for fly in (False, True):
+        spec = field(1e6, fly, spacing_m=10.0)
+        plan_s, plan = timed(lambda s=spec: plan_area(s))
+        split_s, shares = timed(lambda p=plan: split_route(p, drones, model=UNLIMITED))
+        mode = "fly-through" if fly else "stop"
+        print(
+            f"{'10 drones':>12} {mode:>12} {len(plan.waypoints):>9} {plan_s * 1e3:>8.1f}"
+            f" {split_s * 1e3:>8.1f} {(plan_s + split_s) * 1e3:>8.1f} {makespan_s(shares):>10.0f}"
+        )
+
+
+def worst_cases() -> None:
+    print(
+        f"{'2000-vertex':>12} {'angle °':>8} {'waypoints':>9} {'cells':>6} {'uncovered m²':>12}"
+        f" {'plan ms':>8}"
+    )
+    for name, outline in WORST.items():
+        spec = AreaSpec(polygon=latlon(outline()), spacing_m=10.0, action="takepic")
+        plan_s, plan = timed(lambda s=spec: plan_area(s), repeat=1)
+        print(
+            f"{name:>12} {plan.angle_deg:>8.1f} {len(plan.waypoints):>9} {plan.cells:>6}"
+            f" {plan.uncovered_m2:>12.3f} {plan_s * 1e3:>8.1f}"
+        )
+
+
+def sizes_and_splits() -> None:
     print(
         f"{'area m²':>8} {'mode':>12} {'waypoints':>9} {'plan ms':>8} {'estimate ms':>11}"
         f" {'flight s':>8}"
@@ -94,6 +164,18 @@ def main() -> None:
                 lambda p=plans[area], c=count: split_route(p, team(c), model=UNLIMITED), repeat=1
             )
             print(f"{area:>8.0e} {count:>6} {split_s * 1e3:>8.1f} {makespan_s(shares):>10.0f}")
+
+
+def main() -> None:
+    which = sys.argv[1] if len(sys.argv) > 1 else "all"
+    if which in ("all", "fleet", "field"):
+        fleet_field()
+        print()
+    if which in ("all", "fleet", "worst"):
+        worst_cases()
+        print()
+    if which == "all":
+        sizes_and_splits()
 
 
 if __name__ == "__main__":

@@ -7,12 +7,14 @@ preparation (arming, climb) when on the ground, transit to its first waypoint, t
 
 Shares are contiguous chunks of the boustrophedon route, so drones work in separate regions.
 The makespan is found by bisection: for a candidate time ``T`` and an order of drones along the
-route, the chunk starts reachable by the first ``m`` drones within ``T`` form a set that grows by
-intervals (numpy); every order is tried (drones are few: 5 drones, 120 orders).
+route, the chunk starts reachable by the first ``m`` drones within ``T`` are every allowed start
+up to some index (see ``_Search``), so one bisect per drone answers it; every order is tried, up
+to ``max_orders`` (5 drones: 120 orders; 10 drones: the first 720, sharing prefixes).
 """
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import math
 from collections.abc import Sequence
@@ -157,6 +159,16 @@ def _start_costs(
 
 
 # -- the split --------------------------------------------------------------------------------
+# Why the reach sets are prefixes. A drone may also take an empty share, so the starts reachable
+# by the first m drones always include those of the first m - 1; from a start b the m-th drone
+# reaches every start in [b + 1, last(b) + 1], where last(b) >= b whenever b is usable at all
+# (in time and within the battery). Starting from {0}, the union of such intervals over every
+# reachable b <= R is [0, max(R, max_b last(b) + 1)]: the set stays "every allowed start up to
+# R" and one integer R describes it. A step is then max over b <= R of last(b), and for the
+# time limit last(b) = bisect(P, g[b] + T) with g[b] = P[b] - start[b] - hold[b], independent of
+# T: a running maximum of g, computed once per split, answers a step in O(log n) instead of
+# the O(n) interval sweep (np.add.at) it replaces — 10 drones over 10 000 waypoints went from
+# 12.5 s to a few tens of ms. Starts that are unusable give last(b) < b <= R and so never count.
 class _Search:
     def __init__(
         self, r: _Route, start: np.ndarray, usable_mah: np.ndarray, model: VehicleModel
@@ -168,46 +180,74 @@ class _Search:
         # What each drone may spend on its share's work, less what getting there costs.
         transit_a = model.hover_current_a * _TRANSIT_CURRENT
         self.budget_mah = usable_mah[:, None, None] - start * transit_a / 3.6
+        # g[d, m, b] (see above), -inf where a share may not begin; its running maximum over b
+        # and where that maximum is reached.
+        g = self.prefix - start - r.hold_s
+        g = np.where(r.starts, g, -np.inf)
+        self.g_max = np.maximum.accumulate(g, axis=2)
+        at = np.where(g >= self.g_max, np.arange(self.n), 0)
+        self.g_arg = np.maximum.accumulate(at, axis=2)
+        self._p = self.prefix.tolist()  # bisect on lists: a step is a few scalar operations
+        self._e = self.prefix_mah.tolist()
 
-    def step(self, reach: np.ndarray, d: int, m: int, limit: float) -> np.ndarray:
-        """Starts reachable once drone ``d`` (m-th share) has taken a chunk finishing by limit."""
-        n, p = self.n, self.prefix
-        b = np.flatnonzero(reach[:n])
-        budget = limit - self.start[d, m, b] - self.r.hold_s[b]
-        energy = self.budget_mah[d, m, b] - self.r.hold_mah[b]
-        ok = (budget >= 0) & (energy >= 0)
-        b, budget, energy = b[ok], budget[ok], energy[ok]
-        e = self.prefix_mah
-        last = np.minimum(  # the last waypoint within the time and within the battery
-            np.searchsorted(p, p[b] + budget + 1e-9, side="right") - 1,
-            np.searchsorted(e, e[b] + energy, side="right") - 1,
+    def _last_by_energy(self, d: int, m: int, b: int) -> int:
+        """The last waypoint a share of drone ``d`` (m-th) from ``b`` can afford."""
+        left = float(self.budget_mah[d, m, b] - self.r.hold_mah[b])
+        if left < 0:
+            return b - 1
+        return bisect.bisect_right(self._e, self._e[b] + left) - 1
+
+    def step(self, reach: int, d: int, m: int, limit: float) -> int:
+        """The furthest start reachable once drone ``d`` (m-th share) has taken a chunk finishing
+        by ``limit``, when the first ``m`` drones reach every allowed start up to ``reach``."""
+        top = min(reach, self.n - 1)
+        best = float(self.g_max[d, m, top])
+        if best == -np.inf:
+            return reach
+        b = int(self.g_arg[d, m, top])
+        last = bisect.bisect_right(self._p, best + limit + 1e-9) - 1
+        if self._last_by_energy(d, m, b) < last:  # the battery binds: look at every start
+            last = self._exact(reach, d, m, limit)
+        return max(reach, last + 1)
+
+    def _exact(self, reach: int, d: int, m: int, limit: float) -> int:
+        top = min(reach, self.n - 1)
+        bs = np.flatnonzero(self.r.starts[: top + 1])
+        p, e = self.prefix, self.prefix_mah
+        budget = limit - self.start[d, m, bs] - self.r.hold_s[bs]
+        energy = self.budget_mah[d, m, bs] - self.r.hold_mah[bs]
+        last = np.minimum(
+            np.searchsorted(p, p[bs] + budget + 1e-9, side="right") - 1,
+            np.searchsorted(e, e[bs] + energy, side="right") - 1,
         )
-        diff = np.zeros(n + 2)
-        np.add.at(diff, b + 1, 1)
-        np.add.at(diff, last + 2, -1)
-        grown = np.cumsum(diff)[: n + 1] > 0
-        return (reach | grown) & self.allowed
+        usable = (budget >= 0) & (energy >= 0)
+        return int(last[usable].max()) if usable.any() else -1
+
+    def first_fit(self, d: int, m: int, e: int, reach: int, limit: float) -> int:
+        """The first reachable start from which drone ``d`` (m-th) can fly up to ``e`` by
+        ``limit`` (``e`` itself, an empty share, when none can)."""
+        bs = np.flatnonzero(self.r.starts[: min(e, reach + 1)])
+        if e == 0 or bs.size == 0:
+            return e
+        r = self.r
+        finish = self.start[d, m, bs] + r.hold_s[bs] + self.prefix[e - 1] - self.prefix[bs]
+        mah = r.hold_mah[bs] + self.prefix_mah[e - 1] - self.prefix_mah[bs]
+        ok = (finish <= limit + 1e-6) & (mah <= self.budget_mah[d, m, bs] + 1e-6)
+        return int(bs[np.argmax(ok)]) if ok.any() else e
 
     def feasible(self, limit: float, orders: list[tuple[int, ...]]) -> tuple[int, ...] | None:
-        first = np.zeros(self.n + 1, dtype=bool)
-        first[0] = True
-        memo: dict[tuple[int, ...], np.ndarray] = {(): first}
+        memo: dict[tuple[int, ...], int] = {(): 0}
         for order in orders:
             for k in range(1, len(order) + 1):
                 key = order[:k]
                 if key not in memo:
                     memo[key] = self.step(memo[order[: k - 1]], order[k - 1], k - 1, limit)
-                if memo[key][self.n]:
+                if memo[key] >= self.n:
                     return order
         return None
 
     def finish(self, d: int, m: int, b: int, e: int) -> float:
         return float(self.start[d, m, b] + self.r.hold_s[b] + self.prefix[e - 1] - self.prefix[b])
-
-    def fits(self, d: int, m: int, b: int, e: int, limit: float) -> bool:
-        mah = self.r.hold_mah[b] + self.prefix_mah[e - 1] - self.prefix_mah[b]
-        in_time = self.finish(d, m, b, e) <= limit + 1e-6
-        return in_time and mah <= self.budget_mah[d, m, b] + 1e-6
 
 
 def split_route(
@@ -269,14 +309,13 @@ def _assign(
     limit: float,
     offsets: list[float],
 ) -> list[Assignment]:
-    reach = [np.zeros(search.n + 1, dtype=bool)]
-    reach[0][0] = True
+    reach = [0]
     for m, d in enumerate(order):
         reach.append(search.step(reach[-1], d, m, limit))
     end, chunks = search.n, []
     for m in range(len(order) - 1, -1, -1):
         d = order[m]
-        b = next((b for b in range(end) if reach[m][b] and search.fits(d, m, b, end, limit)), end)
+        b = search.first_fit(d, m, end, reach[m], limit)
         chunks.append((m, d, b, end))
         end = b
     out = []

@@ -21,9 +21,10 @@ from shapely.geometry import Polygon
 
 from dronefleet.geo.ned import LocalFrame
 from dronefleet.geo.types import LLA, NED
+from dronefleet.ground.planner.coverage.angle import AngleChooser
 from dronefleet.ground.planner.coverage.project import LocalProjection
 from dronefleet.ground.planner.coverage.spec import Action, AreaSpec, Grid, LatLon
-from dronefleet.ground.planner.coverage.swaths import AngleChooser, SwathGenerator
+from dronefleet.ground.planner.coverage.swaths import SwathGenerator
 
 
 def collaboration_factor(joining_drones: int) -> float:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from shapely.geometry import LineString, Point, Polygon
 
+from dronefleet.ground.planner.coverage.angle import AngleChooser
 from dronefleet.ground.planner.coverage.decompose import BoustrophedonDecomposer
 from dronefleet.ground.planner.coverage.path import GapFiller, PathBuilder, RoutePoint
 from dronefleet.ground.planner.coverage.plan import CoveragePlan
@@ -20,7 +21,6 @@ from dronefleet.ground.planner.coverage.route import BoustrophedonOrderer
 from dronefleet.ground.planner.coverage.router import InAreaRouter
 from dronefleet.ground.planner.coverage.spec import Action, AreaSpec, Grid
 from dronefleet.ground.planner.coverage.swaths import (
-    AngleChooser,
     SwathGenerator,
     from_sweep_xy,
     to_sweep,

@@ -1,4 +1,5 @@
-"""Stage 3 of the coverage pipeline: swaths at a spacing and an angle, and the automatic angle.
+"""Stage 3 of the coverage pipeline: swaths at a spacing and an angle (the automatic angle is
+:mod:`.angle`).
 
 Everything here works in the *sweep frame*: the local plane rotated so that the swath bearing
 points along +x; swaths are then horizontal lines ``y = offset``, clipped against the area into
@@ -8,18 +9,17 @@ segments (a concave area or one with holes gives several segments on one line). 
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
+import numpy as np
 import shapely
 from shapely import affinity
 from shapely.geometry import Polygon
 
+from dronefleet.ground.planner.coverage.clip import clip, edges_of
 from dronefleet.ground.planner.coverage.spec import Grid
 
-#: Segments shorter than this (metres) are where a line only grazes a vertex: dropped.
-MIN_SEGMENT_M = 1e-6
 #: The seed grid's edge lines are pulled this far inside so they cut the area, not graze it.
 EDGE_EPS_M = 1e-3
 
@@ -75,60 +75,7 @@ class SwathGenerator:
 
     def lines(self, area: Polygon) -> list[SweepLine]:
         """The swath lines of ``area`` (already in the sweep frame)."""
-        minx, ymin, maxx, ymax = area.bounds
+        _, ymin, _, ymax = area.bounds
         ys = self.offsets(ymin, ymax)
-        cuts = shapely.intersection(
-            shapely.linestrings([[(minx - 1.0, y), (maxx + 1.0, y)] for y in ys]), area
-        )
-        pairs = enumerate(zip(ys, cuts, strict=True))
-        return [SweepLine(i, y, _segments(cut)) for i, (y, cut) in pairs]
-
-
-def _segments(cut: shapely.Geometry) -> tuple[tuple[float, float], ...]:
-    spans = []
-    for part in shapely.get_parts(cut):
-        if part.geom_type != "LineString" or part.length < MIN_SEGMENT_M:
-            continue
-        xs = [x for x, _ in part.coords]
-        spans.append((min(xs), max(xs)))
-    spans.sort()
-    merged: list[list[float]] = []
-    for x0, x1 in spans:  # pieces along an edge can come out split or overlapping
-        if merged and x0 <= merged[-1][1] + 1e-9:
-            merged[-1][1] = max(merged[-1][1], x1)
-        else:
-            merged.append([x0, x1])
-    return tuple((a, b) for a, b in merged)
-
-
-@dataclass(frozen=True)
-class AngleChooser:
-    """The automatic angle: fewest swath segments (turns), then least total swath length.
-
-    Candidates are the directions of the convex hull's edges (the optimum for a convex area is
-    parallel to one of them) and every ``step_deg`` degrees.
-    """
-
-    step_deg: float = 15.0
-
-    def candidates(self, area: Polygon) -> list[float]:
-        hull = list(area.convex_hull.exterior.coords)
-        angles = []
-        for (x0, y0), (x1, y1) in itertools.pairwise(hull):
-            if math.hypot(x1 - x0, y1 - y0) > 1e-6:
-                angles.append(round(math.degrees(math.atan2(x1 - x0, y1 - y0)) % 180.0, 6))
-        steps = round(180.0 / self.step_deg)
-        angles += [k * self.step_deg for k in range(steps)]
-        return list(dict.fromkeys(angles))  # hull edges first, no duplicates
-
-    def choose(self, area: Polygon, swaths: SwathGenerator) -> float:
-        best: tuple[int, float] | None = None
-        best_angle = 0.0
-        for angle in self.candidates(area):
-            lines = swaths.lines(to_sweep(area, angle))
-            segments = sum(len(line.segments) for line in lines)
-            length = sum(x1 - x0 for line in lines for x0, x1 in line.segments)
-            key = (segments, round(length, 3))
-            if best is None or key < best:
-                best, best_angle = key, angle
-        return best_angle
+        spans = clip(edges_of(area), np.asarray(ys))
+        return [SweepLine(i, y, s) for i, (y, s) in enumerate(zip(ys, spans, strict=True))]
