@@ -27,12 +27,16 @@ from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode, decode_object
 from dronefleet.messaging.commands import Command, CommandResponse, parse_control
 from dronefleet.messaging.gear import GearQuery, GearRequest
+from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
 from dronefleet.messaging.status import BatteryStatus, FlightParams, Heartbeat, Telemetry
 from dronefleet.messaging.topics import Channel, Direction
 from dronefleet.vehicle.base import FcError, FlightController
 
 log = logging.getLogger(__name__)
+_throttle = LogThrottle(
+    log
+)  # one line per kind per 10 s: junk on the broker must not flood the log
 
 
 class CommandError(Exception):
@@ -98,7 +102,9 @@ class DroneController:
         try:
             request = parse_control(decode_object(payload))
         except MessageError as exc:
-            log.info("%s: rejected control message: %s", self.drone_id, exc)
+            _throttle.log(
+                logging.INFO, "control", "%s: rejected control message: %s", self.drone_id, exc
+            )
             await self._respond(request_id, command, ok=False, error=str(exc))
             return
         try:

@@ -26,7 +26,9 @@ from dronefleet.messaging.codec import MessageError, decode, decode_object
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import validate
 from dronefleet.messaging.gear import GearQuery
+from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import (
+    MAX_STEPS,
     MissionAction,
     MissionProgress,
     MissionRequest,
@@ -38,10 +40,17 @@ from dronefleet.messaging.topics import Channel, Direction
 from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
+_throttle = LogThrottle(
+    log
+)  # one line per kind per 10 s: junk on the broker must not flood the log
 
 
-#: Missions whose reports are kept for replay.
+#: Missions whose reports are kept for replay, and reports kept per mission (a step each, and a
+#: few more). A replay of one mission is answered at most once per REPLAY_GAP_S vehicle seconds:
+#: 20 report requests once made a drone publish 100,040 messages (issue 11).
 HISTORY_MISSIONS = 20
+REPORTS_PER_MISSION = MAX_STEPS + 16
+REPLAY_GAP_S = 2.0
 
 
 class StepFailed(Exception):
@@ -63,6 +72,7 @@ class MissionWorker:
         self._sensor_names: list[str] | None = None
         # Every report of the last missions, re-sent on request to a planner that missed some.
         self.history: OrderedDict[str, list[MissionProgress]] = OrderedDict()
+        self._replayed: dict[str, float] = {}  # mission id -> vehicle time of its last replay
 
     async def start(self) -> None:
         await self.client.subscribe(
@@ -84,7 +94,9 @@ class MissionWorker:
             request = validate(MissionRequest, decode_object(payload))
             steps = decode_steps(request) if request.action is MissionAction.START else []
         except MessageError as exc:
-            log.info("%s: mission rejected: %s", self.controller.drone_id, exc)
+            _throttle.log(
+                logging.INFO, "mission", "%s: mission rejected: %s", self.controller.drone_id, exc
+            )
             await self._report(
                 ProgressEvent.REJECTED,
                 mission_id or "",
@@ -292,10 +304,12 @@ class MissionWorker:
         await self.publish(progress)
 
     async def publish(self, progress: MissionProgress) -> None:
-        """Publish a report (QoS 1) and keep it for :meth:`_replay`."""
-        if progress.mission_id:
+        """Publish a report (QoS 1) and keep it for :meth:`_replay` (not a rejection: it answers a
+        request that never became a mission)."""
+        if progress.mission_id and progress.event is not ProgressEvent.REJECTED:
             kept = self.history.setdefault(progress.mission_id, [])
             kept.append(progress)
+            del kept[:-REPORTS_PER_MISSION]
             self.history.move_to_end(progress.mission_id)
             while len(self.history) > HISTORY_MISSIONS:
                 self.history.popitem(last=False)
@@ -303,6 +317,13 @@ class MissionWorker:
 
     async def _replay(self, mission_id: str, request_id: str | None) -> None:
         """Re-send every report of ``mission_id``, in order; readers drop the duplicates."""
+        now = self.clock.now()
+        last = self._replayed.get(mission_id)
+        if last is not None and now - last < REPLAY_GAP_S:
+            return  # just re-sent: a burst of requests gets one replay
+        self._replayed[mission_id] = now
+        while len(self._replayed) > HISTORY_MISSIONS:
+            self._replayed.pop(next(iter(self._replayed)))
         kept = list(self.history.get(mission_id, []))
         if not kept:
             await self._report(

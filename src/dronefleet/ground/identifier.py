@@ -14,19 +14,32 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from typing import Any
+from typing import Any, Literal
+
+from pydantic import Field
 
 from dronefleet.clock import timestamp_s
 from dronefleet.ground.fleet import DroneRecord, DroneStatus, LenientHeartbeat
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
-from dronefleet.messaging.common import validate
+from dronefleet.messaging.common import Message, validate
 from dronefleet.messaging.gear import GearQuery, GearRequest
+from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
-from dronefleet.messaging.topics import Channel, Direction, any_drone, ground, topic
+from dronefleet.messaging.topics import (
+    GROUND_PREFIX,
+    Channel,
+    Direction,
+    any_drone,
+    ground,
+    topic,
+)
 
 log = logging.getLogger(__name__)
+_throttle = LogThrottle(
+    log
+)  # one line per kind per 10 s: junk on the broker must not flood the log
 
 QUERY_TOPIC = ground("identifier", "in")
 REPLY_TOPIC = ground("identifier", "out")
@@ -51,6 +64,7 @@ class DroneIdentifier:
         self._gear_asked_at: dict[str, float] = {}
         self._tasks: list[asyncio.Task[None]] = []
         self._gear_tasks: set[asyncio.Task[None]] = set()
+        self.dropped_queries = 0  # messages on ground/identifier/in that were not queries
 
     async def start(self) -> DroneIdentifier:
         started = timestamp_s()
@@ -87,10 +101,18 @@ class DroneIdentifier:
         try:
             hb = validate(LenientHeartbeat, decode_object(payload))
         except MessageError as exc:
-            log.warning("dropping heartbeat on %s: %s", topic_name, exc)
+            _throttle.log(
+                logging.WARNING, "heartbeat", "dropping heartbeat on %s: %s", topic_name, exc
+            )
             return
         if not topic_name.startswith(f"{hb.drone_id}/"):
-            log.warning("dropping heartbeat of %s sent on %s", hb.drone_id, topic_name)
+            _throttle.log(
+                logging.WARNING,
+                "heartbeat",
+                "dropping heartbeat of %s sent on %s",
+                hb.drone_id,
+                topic_name,
+            )
             return
         now = timestamp_s()
         record = self.fleet.get(hb.drone_id)
@@ -170,24 +192,19 @@ class DroneIdentifier:
 
     async def _on_query(self, topic_name: str, payload: bytes) -> None:
         try:
-            data = decode_object(payload)
+            query = validate(IdentifierQuery, decode_object(payload))
         except MessageError as exc:
-            log.warning("dropping identifier query: %s", exc)
+            # Not a query (a flood of junk here once made the identifier answer each piece).
+            self.dropped_queries += 1
+            _throttle.log(logging.WARNING, "query", "dropping identifier query: %s", exc)
             return
-        reply_to = data.get("reply_to") or REPLY_TOPIC
-        if not isinstance(reply_to, str) or not reply_to.startswith(f"{ground()}/"):
-            log.warning("dropping identifier query with reply_to %r", reply_to)
-            return
-        answer: dict[str, Any] = {"request_id": data.get("request_id"), "ok": True}
-        query = data.get("query")
-        if query == "discover":
+        answer: dict[str, Any] = {"request_id": query.request_id, "ok": True}
+        if query.query == "discover":
             answer["drones"] = self.snapshot()
-        elif query == "drone":
-            record = self.fleet.get(str(data.get("drone_id")))
-            answer["drone"] = record.public() if record else None
         else:
-            answer.update(ok=False, error=f"unknown query {query!r}; known: discover, drone")
-        await self.client.publish(reply_to, answer)
+            record = self.fleet.get(query.drone_id or "")
+            answer["drone"] = record.public() if record else None
+        await self.client.publish(query.reply_to, answer)
 
     # -- persistence ---------------------------------------------------------------------------
     async def _persist_loop(self) -> None:
@@ -214,6 +231,15 @@ class DroneIdentifier:
         for d in ids:
             self._dirty.discard(d)
             self._persisted_at[d] = now
+
+
+class IdentifierQuery(Message):
+    """What ground components ask the Drone Identifier (``ground/identifier/in``)."""
+
+    query: Literal["discover", "drone"]
+    request_id: str = Field(min_length=1, max_length=64)
+    drone_id: str | None = Field(default=None, max_length=64)
+    reply_to: str = Field(default=REPLY_TOPIC, pattern=rf"^{GROUND_PREFIX}/[^#+]{{1,200}}$")
 
 
 def identifier_query(query: str, drone_id: str | None = None) -> dict[str, Any]:

@@ -19,14 +19,30 @@ from typing import Any
 
 import aiomqtt
 
-# MQTT filter matching (``+``, ``#``, ``$`` topics) as the broker does it: paho's, not ours.
-from paho.mqtt.client import topic_matches_sub
+# MQTT filter matching (``+``, ``#``) as the broker does it: paho's trie of filters, built once
+# per client (paho's topic_matches_sub builds one per call, which a flood made the hot spot).
+from paho.mqtt.matcher import MQTTMatcher
 from pydantic import BaseModel
 
 from dronefleet.messaging.codec import encode
+from dronefleet.messaging.log_throttle import LogThrottle, ThrottleFilter
+from dronefleet.messaging.memory import release_freed_memory_soon
 from dronefleet.messaging.url import BrokerUrl
 
 log = logging.getLogger(__name__)
+_throttle = LogThrottle(log)
+_MQTT_LOG = logging.getLogger("dronefleet.mqtt")  # aiomqtt's, throttled
+_MQTT_LOG.addFilter(ThrottleFilter())
+
+#: Messages and bytes waiting per subscription; beyond either the oldest are dropped (counted).
+QUEUE_LIMIT = 2_000
+QUEUE_BYTES = 4 * 1024 * 1024
+#: After this many messages, once its queue is empty, a subscription gives freed memory back
+#: (messaging/memory.py; at most once per 5 s in a process).
+TRIM_AFTER = 200
+#: Larger messages are dropped (and counted) before any parsing: a mission of the most steps
+#: allowed (messaging/missions.py, 10,000) is about 1.5 MB.
+MAX_PAYLOAD_BYTES = 2 * 1024 * 1024
 
 Handler = Callable[[str, bytes], Awaitable[None]]
 
@@ -43,8 +59,14 @@ class _Subscription:
     pattern: str
     handler: Handler
     qos: int
-    queue: asyncio.Queue[tuple[str, bytes]] = field(default_factory=lambda: asyncio.Queue(10_000))
+    queue: asyncio.Queue[tuple[str, bytes]] = field(
+        default_factory=lambda: asyncio.Queue(QUEUE_LIMIT)
+    )
     worker: asyncio.Task[None] | None = None
+    dropped: int = 0  # the oldest messages pushed out of a full queue, and oversized ones
+    queued_bytes: int = 0
+    since_trim: int = 0  # messages taken since freed memory was last given back
+    failed: int = 0  # messages its handler raised on
 
 
 def _no_delay(client: aiomqtt.Client) -> None:
@@ -73,6 +95,7 @@ class BrokerClient:
         self.reconnect_s = reconnect_s
         self.persistent_session = persistent_session
         self._subs: list[_Subscription] = []
+        self._matcher = MQTTMatcher()  # filter -> its subscriptions
         self._client: aiomqtt.Client | None = None
         self._connected = asyncio.Event()
         self._runner: asyncio.Task[None] | None = None
@@ -135,6 +158,10 @@ class BrokerClient:
     async def subscribe(self, pattern: str, handler: Handler, *, qos: int = QOS_COMMAND) -> None:
         """Call ``handler(topic, payload)`` for each message matching ``pattern``, in order."""
         sub = _Subscription(pattern, handler, qos)
+        try:
+            self._matcher[pattern].append(sub)
+        except KeyError:
+            self._matcher[pattern] = [sub]
         sub.worker = asyncio.create_task(self._work(sub), name=f"sub:{pattern}")
         self._subs.append(sub)
         if self._client is not None and self.connected:
@@ -176,6 +203,23 @@ class BrokerClient:
                 raise BrokerUnavailable(f"client {self.client_id} stopped; {topic_name} not sent")
 
     # -- internals ---------------------------------------------------------------------------
+    @property
+    def _queue_type(self) -> type[asyncio.Queue[aiomqtt.Message]]:
+        """aiomqtt's incoming queue (its public ``queue_type``), made to hand each message
+        straight to our subscriptions' bounded queues as paho delivers it. aiomqtt's own queue
+        is unbounded or drops the newest, and its iterator costs a task per message: a flood
+        of 100,000 messages left 10,000 waiting there for 30 s after it ended (issue 11)."""
+        dispatch = self._dispatch
+
+        class Dispatch(asyncio.Queue[aiomqtt.Message]):
+            def put_nowait(self, item: aiomqtt.Message) -> None:
+                payload = item.payload
+                if not isinstance(payload, bytes | bytearray):
+                    payload = str(payload or "").encode()
+                dispatch(item.topic.value, bytes(payload))
+
+        return Dispatch
+
     async def _run(self) -> None:
         while not self._stopping:
             try:
@@ -187,7 +231,8 @@ class BrokerClient:
                     identifier=self.client_id,
                     clean_session=not self.persistent_session,
                     keepalive=self.keepalive_s,
-                    max_queued_incoming_messages=100_000,
+                    queue_type=self._queue_type,
+                    logger=_MQTT_LOG,
                 ) as client:
                     self._client = client
                     _no_delay(client)
@@ -196,8 +241,8 @@ class BrokerClient:
                     self.connections += 1
                     self._connected.set()
                     log.debug("%s connected to %s", self.client_id, self.url)
-                    async for message in client.messages:
-                        self._dispatch(message.topic.value, bytes(message.payload or b""))
+                    async for _ in client.messages:  # never yields (see _queue_type): it
+                        pass  # ends, raising MqttError, when the link is lost
             except aiomqtt.MqttError as exc:
                 if not self._stopping:
                     log.info(
@@ -210,26 +255,41 @@ class BrokerClient:
                 await asyncio.sleep(self.reconnect_s)
 
     def _dispatch(self, topic_name: str, payload: bytes) -> None:
-        for sub in self._subs:
-            if topic_matches_sub(sub.pattern, topic_name):
-                try:
-                    sub.queue.put_nowait((topic_name, payload))
-                except asyncio.QueueFull:
-                    log.warning(
-                        "queue for %s full; dropping a message on %s", sub.pattern, topic_name
-                    )
+        for sub in (sub for subs in self._matcher.iter_match(topic_name) for sub in subs):
+            if len(payload) > MAX_PAYLOAD_BYTES:
+                sub.dropped += 1
+                _throttle.log(logging.WARNING, f"big:{sub.pattern}", "%s: a %d-byte message on %s "
+                              "dropped (limit %d)", self.client_id, len(payload), topic_name,
+                              MAX_PAYLOAD_BYTES)  # fmt: skip
+                continue
+            while sub.queue.full() or sub.queued_bytes + len(payload) > QUEUE_BYTES:
+                # A flood must not delay what comes after it: the oldest waiting message goes.
+                _, old = sub.queue.get_nowait()
+                sub.queued_bytes -= len(old)
+                sub.dropped += 1
+                what = "%s: queue for %s full; dropped its oldest message"
+                _throttle.log(logging.WARNING, f"full:{sub.pattern}", what, self.client_id,
+                              sub.pattern)  # fmt: skip
+            sub.queue.put_nowait((topic_name, payload))
+            sub.queued_bytes += len(payload)
 
     async def _work(self, sub: _Subscription) -> None:
         while True:
+            if sub.since_trim >= TRIM_AFTER and sub.queue.empty():
+                release_freed_memory_soon()
+                sub.since_trim = 0
             topic_name, payload = await sub.queue.get()
+            sub.since_trim += 1
+            sub.queued_bytes -= len(payload)
             try:
                 await sub.handler(topic_name, payload)
             except asyncio.CancelledError:
                 raise
             except Exception:
-                log.exception(
-                    "handler for %s failed on a message from %s; dropped", sub.pattern, topic_name
-                )
+                sub.failed += 1
+                what = "handler for %s failed on a message from %s; dropped"
+                _throttle.log(logging.ERROR, f"fail:{sub.pattern}", what, sub.pattern,
+                              topic_name, exc=True)  # fmt: skip
 
 
 def _keep_cancellation() -> None:

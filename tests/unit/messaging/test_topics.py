@@ -1,9 +1,11 @@
 """The seed's topics (Table 4.4) come from one helper and parse back."""
 
+import asyncio
+
 import pytest
 
 from dronefleet.messaging import topics
-from dronefleet.messaging.client import matches
+from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.topics import Channel, Direction, TopicError
 
 
@@ -51,5 +53,16 @@ def test_parse_round_trips():
         ("a/b", "a/b", True),
     ],
 )
-def test_filter_matching(pattern, topic_name, expected):
-    assert matches(pattern, topic_name) is expected
+async def test_filter_matching(pattern, topic_name, expected):
+    """A message reaches a subscription by MQTT's filter rules (paho's matcher)."""
+    got: list[str] = []
+
+    async def handler(topic: str, _payload: bytes) -> None:
+        got.append(topic)
+
+    client = BrokerClient("mqtt://127.0.0.1:1", "matching")
+    await client.subscribe(pattern, handler)
+    client._dispatch(topic_name, b"{}")
+    await asyncio.sleep(0.01)
+    await client.stop()
+    assert (got == [topic_name]) is expected

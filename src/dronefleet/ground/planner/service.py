@@ -30,11 +30,15 @@ from dronefleet.ground.planner.units import remaining
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import MissionAction, MissionRequest
 from dronefleet.messaging.rpc import Requester
 from dronefleet.messaging.topics import Channel, Direction, any_drone, topic
 
 log = logging.getLogger(__name__)
+_throttle = LogThrottle(
+    log
+)  # one line per kind per 10 s: junk on the broker must not flood the log
 
 PATH_SAMPLE_S = 1.0  # vehicle seconds between path points kept for the mission log
 
@@ -222,7 +226,9 @@ class MissionPlanner:
         try:
             msg = decode_object(payload)
         except MessageError as exc:
-            log.warning("dropping progress on %s: %s", topic_name, exc)
+            _throttle.log(
+                logging.WARNING, "progress", "dropping progress on %s: %s", topic_name, exc
+            )
             return
         mission_id = self._legs.get(str(msg.get("mission_id")))
         if mission_id is None:
@@ -308,7 +314,7 @@ class MissionPlanner:
             alarm = decode_object(payload)
             drone_id, level = str(alarm["drone_id"]), str(alarm["level"])
         except (MessageError, KeyError) as exc:
-            log.warning("dropping alarm on %s: %s", topic_name, exc)
+            _throttle.log(logging.WARNING, "alarm", "dropping alarm on %s: %s", topic_name, exc)
             return
         async with self._lock:
             record, leg = self._mission_of(drone_id, alarm.get("mission_id"))

@@ -2,8 +2,9 @@
 
 Subscribes ``+/telemetry/out`` on the ground broker, turns each message into a
 :class:`TelemetryPoint`, and writes them in batches (every ``flush_s`` or ``batch_size`` points)
-so a hundred drones at 5 Hz cost a few database writes per second. Malformed messages, bad field
-names and non-finite values are dropped and counted, never fatal.
+so a hundred drones at 5 Hz cost a few database writes per second. Malformed messages, fields of
+no known schema, impossible values and unbelievable timestamps are dropped and counted, never
+stored (messaging/telemetry_schema.py), never fatal.
 """
 
 from __future__ import annotations
@@ -11,16 +12,17 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
 from typing import Any
 
 from pydantic import ConfigDict
 
+from dronefleet import clock
 from dronefleet.ground.telemetry.store import FIELD_RE, TelemetryPoint, TelemetryStore
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
 from dronefleet.messaging.common import validate
 from dronefleet.messaging.status import Telemetry
+from dronefleet.messaging.telemetry_schema import believable_timestamp, screen
 from dronefleet.messaging.topics import Channel, any_drone
 
 log = logging.getLogger(__name__)
@@ -49,7 +51,9 @@ class TelemetryConnector:
         self.batch_size = batch_size
         self.received = 0
         self.stored = 0
-        self.dropped = 0
+        self.dropped = 0  # whole messages
+        self.unknown_fields = 0  # fields of no known schema, left out (messaging/telemetry_schema)
+        self.out_of_range = 0  # values no vehicle or sensor can have, left out
         self._buffer: list[TelemetryPoint] = []
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
@@ -81,9 +85,13 @@ class TelemetryConnector:
         if not topic_name.startswith(f"{msg.drone_id}/"):
             self.dropped += 1
             return
-        fields = {
-            k: float(v) for k, v in msg.fields.items() if FIELD_RE.match(k) and math.isfinite(v)
-        }
+        if not believable_timestamp(msg.timestamp, clock.timestamp_s()):
+            self.dropped += 1
+            return
+        fields, unknown, out_of_range = screen(msg.fields)
+        self.unknown_fields += unknown
+        self.out_of_range += out_of_range
+        fields = {k: v for k, v in fields.items() if FIELD_RE.match(k)}
         if not fields:
             self.dropped += 1
             return
