@@ -16,7 +16,7 @@ from pydantic import ValidationError
 
 from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import ctx_of
-from dronefleet.ground.manager.drones import run_control, run_mission
+from dronefleet.ground.manager.drones import MIN_TIMEOUT_S, run_control, run_mission
 from dronefleet.ground.manager.errors import ApiError
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import reason
@@ -66,8 +66,8 @@ def _timeout(params: dict[str, Any]) -> float | None:
         value = float(params["timeout_s"])
     except (TypeError, ValueError) as exc:
         raise ApiError(422, "timeout_s: must be a number of seconds") from exc
-    if not 0 < value <= 300:
-        raise ApiError(422, "timeout_s: must be in (0, 300]")
+    if not MIN_TIMEOUT_S <= value <= 300:
+        raise ApiError(422, f"timeout_s: must be in [{MIN_TIMEOUT_S:g}, 300]")
     return value
 
 

@@ -29,7 +29,8 @@ router = APIRouter(tags=["web"])
 
 
 def _file(relative: str) -> FileResponse:
-    path = (WEB_ROOT / relative).resolve()
+    # A NUL cannot be in a file name; the OS calls would refuse it with a ValueError (a 500).
+    path = WEB_ROOT if "\x00" in relative else (WEB_ROOT / relative).resolve()
     if not path.is_relative_to(WEB_ROOT) or not path.is_file():
         hint = " (run `bash scripts/web-deps.sh`)" if relative.startswith("vendor/") else ""
         raise ApiError(404, f"no web file {relative!r}{hint}")
