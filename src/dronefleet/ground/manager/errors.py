@@ -124,11 +124,19 @@ async def _audit_rejected(request: Request, body: dict[str, Any]) -> None:
     await ctx.gateway.audit(who, match[1], command, params, 422, body)
 
 
+def error_body(status: int, body: dict[str, Any]) -> dict[str, Any]:
+    """Every 422 has ``errors`` (its schema says so): a refusal found past the request's schema
+    (a polygon that crosses itself, an unknown step) is one error without a location."""
+    if status == 422 and "errors" not in body:
+        return {**body, "errors": [{"loc": [], "msg": body["detail"], "type": "invalid_input"}]}
+    return body
+
+
 def install(app: FastAPI) -> None:
     # The one mapping of domain errors to HTTP: each class carries its status.
     @app.exception_handler(DronefleetError)
     async def _refused(request: Request, exc: DronefleetError) -> JSONResponse:
-        return JSONResponse(exc.body(), status_code=exc.status)
+        return JSONResponse(error_body(exc.status, exc.body()), status_code=exc.status)
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -144,4 +152,10 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
         detail = exc.detail if isinstance(exc.detail, str) else str(exc.detail)
-        return JSONResponse({"detail": detail}, status_code=exc.status_code, headers=exc.headers)
+        # FastAPI's 400 is a body it could not parse (not UTF-8, say): input the server cannot
+        # use, which everywhere else is a 422, so one status and one shape for all of it.
+        status = 422 if exc.status_code == 400 else exc.status_code
+        body = error_body(
+            status, {"detail": f"body: {detail}" if status != exc.status_code else detail}
+        )
+        return JSONResponse(body, status_code=status, headers=exc.headers)

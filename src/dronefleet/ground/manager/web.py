@@ -12,7 +12,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import FileResponse, RedirectResponse
 
 from dronefleet.ground.manager.context import Viewer
-from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.errors import ApiError, answers
 
 WEB_ROOT = Path(__file__).resolve().parents[2] / "web"
 _TYPES = {
@@ -60,7 +60,9 @@ async def web_config(request: Request) -> dict[str, Any]:
 
 
 @router.get(
-    "/api/v1/web/me", summary="Who the token belongs to: name and role (viewer/operator/admin)"
+    "/api/v1/web/me",
+    summary="Who the token belongs to: name and role (viewer/operator/admin)",
+    responses=answers(401),
 )
 async def web_me(who: Viewer) -> dict[str, Any]:
     return {"name": who.name, "role": who.role.label, "can_command": who.role >= 2}
