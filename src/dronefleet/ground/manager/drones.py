@@ -107,7 +107,9 @@ def _body_model(model: type[BaseModel]) -> type[BaseModel]:
         for name, info in model.model_fields.items()
         if name not in _HIDDEN
     }
-    return create_model(f"{model.__name__}Body", __config__=ConfigDict(extra="forbid"), **fields)
+    # Strict: a JSON body says what it means (``"force": 0`` is not ``false``), as published.
+    config = ConfigDict(extra="forbid", strict=True)
+    return create_model(f"{model.__name__}Body", __config__=config, **fields)
 
 
 def _add_command_route(command: Command, body_model: type[BaseModel], doc: str) -> None:
