@@ -7,9 +7,11 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import Admin, Operator, ctx_of
-from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.errors import ApiError, answers
 
-router = APIRouter(prefix="/api/v1", tags=["admin"])
+router = APIRouter(prefix="/api/v1", tags=["admin"], responses=answers(401, 403, 422))
+#: The largest id SQLite stores (a signed 64-bit integer).
+MAX_ROW_ID = 2**63 - 1
 
 TokenName = Annotated[str, Path(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
 
@@ -20,7 +22,7 @@ async def read_audit(
     who: Operator,
     drone: Annotated[str | None, Query(max_length=64)] = None,
     limit: Annotated[int, Query(ge=1, le=10_000)] = 100,
-    before_id: Annotated[int | None, Query(ge=1)] = None,
+    before_id: Annotated[int | None, Query(ge=1, le=MAX_ROW_ID)] = None,
 ) -> list[dict[str, Any]]:
     return await ctx_of(request).state.read_audit(drone_id=drone, limit=limit, before_id=before_id)
 
@@ -43,7 +45,7 @@ async def create_token(request: Request, who: Admin, body: NewToken) -> dict[str
     return {"name": body.name, "role": role.label, "token": token}
 
 
-@router.delete("/tokens/{name}", summary="Revoke a token")
+@router.delete("/tokens/{name}", summary="Revoke a token", responses=answers(404))
 async def delete_token(request: Request, who: Admin, name: TokenName) -> dict[str, Any]:
     if not await ctx_of(request).tokens.revoke(name):
         raise ApiError(404, f"no token named {name!r}")

@@ -7,8 +7,8 @@ from typing import Annotated, Any
 from fastapi import Depends, Request
 from starlette.requests import HTTPConnection
 
+from dronefleet.errors import DronefleetError
 from dronefleet.ground.manager.auth import Principal, Role, TokenBook
-from dronefleet.ground.manager.errors import ApiError
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.store import TelemetryStore
@@ -55,7 +55,7 @@ async def audited(
     gateway = ctx_of(request).gateway
     try:
         answer = await call
-    except ApiError as exc:
+    except DronefleetError as exc:
         await gateway.audit(who, drone_id, command, params, exc.status, exc.body())
         raise
     await gateway.audit(who, drone_id, command, params, 200, answer)

@@ -16,8 +16,8 @@ from pydantic import ValidationError
 
 from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import ctx_of
-from dronefleet.ground.manager.drones import run_control, run_mission
-from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.drones import MIN_TIMEOUT_S, run_control, run_mission
+from dronefleet.ground.manager.errors import ApiError, answers
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import reason
 from dronefleet.messaging.missions import MissionAction, MissionRequest
@@ -66,13 +66,28 @@ def _timeout(params: dict[str, Any]) -> float | None:
         value = float(params["timeout_s"])
     except (TypeError, ValueError) as exc:
         raise ApiError(422, "timeout_s: must be a number of seconds") from exc
-    if not 0 < value <= 300:
-        raise ApiError(422, "timeout_s: must be in (0, 300]")
+    if not MIN_TIMEOUT_S <= value <= 300:
+        raise ApiError(422, f"timeout_s: must be in [{MIN_TIMEOUT_S:g}, 300]")
     return value
 
 
-@router.get("/control", summary="The seed's control endpoint (reads)", operation_id="control_get")
-@router.post("/control", summary="The seed's control endpoint", operation_id="control_post")
+#: Parameters come from the query, a form or a JSON body (read by hand, as the seed allowed),
+#: so only the answers are documented: every refusal the drone routes give, and 405/415.
+_ANSWERS = answers(401, 403, 404, 405, 409, 415, 422, 504)
+
+
+@router.get(
+    "/control",
+    summary="The seed's control endpoint (reads)",
+    operation_id="control_get",
+    responses=_ANSWERS,
+)
+@router.post(
+    "/control",
+    summary="The seed's control endpoint",
+    operation_id="control_post",
+    responses=_ANSWERS,
+)
 async def control(request: Request) -> Any:
     params = await _params(request)
     command = params.get("command")

@@ -15,17 +15,30 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from dronefleet.ground.manager.auth import Principal
 from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
-from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.errors import ApiError, answers
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command, ControlRequest, parse_control
 from dronefleet.messaging.gear import GearQuery, GearRequest
-from dronefleet.messaging.missions import MissionAction, MissionRequest, decode_steps
+from dronefleet.messaging.missions import MAX_STEPS, MissionAction, MissionRequest, decode_steps
 
-router = APIRouter(prefix="/api/v1/drones", tags=["drones"])
+# Every drone route needs a token and names a drone the Identifier may not know or may have
+# lost; the answer comes over the broker, so it may not come in time (504).
+router = APIRouter(
+    prefix="/api/v1/drones", tags=["drones"], responses=answers(401, 403, 404, 409, 422, 504)
+)
 
 DroneId = Annotated[str, Path(min_length=1, max_length=64, description="drone identifier")]
+#: Shortest wait for a drone's answer. A timeout is no cancellation: the command goes out all the
+#: same and a 504 says only that no answer came in time. Below a broker's round trip every
+#: command would be a 504 that still flies (issue 11: ``timeout_s=5e-324``).
+MIN_TIMEOUT_S = 0.1
 Timeout = Annotated[
-    float | None, Query(gt=0, le=300, description="seconds to wait for the drone's answer")
+    float | None,
+    Query(
+        ge=MIN_TIMEOUT_S,
+        le=300,
+        description="seconds to wait for the drone's answer (the command is sent either way)",
+    ),
 ]
 _HIDDEN = {"command", "request_id", "sender"}
 
@@ -94,7 +107,9 @@ def _body_model(model: type[BaseModel]) -> type[BaseModel]:
         for name, info in model.model_fields.items()
         if name not in _HIDDEN
     }
-    return create_model(f"{model.__name__}Body", __config__=ConfigDict(extra="forbid"), **fields)
+    # Strict: a JSON body says what it means (``"force": 0`` is not ``false``), as published.
+    config = ConfigDict(extra="forbid", strict=True)
+    return create_model(f"{model.__name__}Body", __config__=config, **fields)
 
 
 def _add_command_route(command: Command, body_model: type[BaseModel], doc: str) -> None:
@@ -148,9 +163,12 @@ class MissionStart(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     mission_id: str = Field(default="", max_length=128, pattern=r"^[A-Za-z0-9_.\-]*$")
-    mission: str | None = Field(default=None, description="base64 of a JSON list of steps")
+    mission: str | None = Field(
+        default=None, max_length=10_000_000, description="base64 of a JSON list of steps"
+    )
     steps: list[dict[str, Any]] | None = Field(default=None, max_length=10_000)
-    start_index: int = Field(default=0, ge=0)
+    # Past MAX_STEPS no step can be labelled; the bound also keeps it a 64-bit integer on the wire.
+    start_index: int = Field(default=0, ge=0, le=MAX_STEPS)
 
 
 async def run_mission(

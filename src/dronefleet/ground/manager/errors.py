@@ -2,6 +2,11 @@
 
 Unknown drone 404, lost drone 409 (with last-seen), invalid input 422 with the reason, no answer in
 time 504. Anything a caller sends is answered with a 4xx; a 500 means a bug in this server.
+
+Every refusal is a :class:`~dronefleet.errors.DronefleetError` and one handler answers them all
+with the status its class carries. :class:`ApiError` is the one for the HTTP layer's own refusals
+(401, 403, 415...) whose status is chosen where it is raised. :func:`answers` documents the same
+shapes in the OpenAPI schema, so what is published is what is answered.
 """
 
 from __future__ import annotations
@@ -14,22 +19,68 @@ import orjson
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from pydantic import BaseModel, ConfigDict
 from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from dronefleet.errors import DronefleetError
 
 log = logging.getLogger(__name__)
 
 
-class ApiError(Exception):
-    """An error answer with a status, a reason and optional extra fields."""
+class ApiError(DronefleetError):
+    """An error answer with a status chosen where it is raised, a reason and extra fields."""
 
     def __init__(self, status: int, detail: str, /, **extra: Any) -> None:
-        super().__init__(detail)
+        super().__init__(detail, **extra)
         self.status = status
-        self.detail = detail
-        self.extra = extra
 
-    def body(self) -> dict[str, Any]:
-        return {"detail": self.detail, **self.extra}
+
+# -- what the OpenAPI schema says about errors ---------------------------------------------------
+class ErrorBody(BaseModel):
+    """Every error answer: the reason, and fields that depend on the error (e.g. ``last_seen``)."""
+
+    model_config = ConfigDict(extra="allow")
+    detail: str
+
+
+class FieldError(BaseModel):
+    loc: list[str]
+    msg: str
+    type: str | None = None
+
+
+class ValidationErrorBody(ErrorBody):
+    """A request that does not fit the schema: the reasons joined, and each one by location."""
+
+    errors: list[FieldError]
+
+
+_WHY = {
+    401: "missing or unknown API token",
+    403: "the token's role is too low",
+    404: "not found",
+    405: "the command changes the drone: use POST",
+    409: "conflicts with the current state (drone lost, busy, refused)",
+    415: "unsupported body type",
+    422: "invalid input; `detail` says why",
+    503: "a service it needs is unavailable",
+    504: "no answer in time; a command may still reach the drone",
+}
+
+
+def answers(*statuses: int) -> dict[int | str, dict[str, Any]]:
+    """The error answers a route can give, for its ``responses=`` (422 with its real shape).
+
+    FastAPI would otherwise publish its own 422 schema (``detail`` a list), which is not what
+    :func:`install` answers.
+    """
+    return {
+        status: {
+            "model": ValidationErrorBody if status == 422 else ErrorBody,
+            "description": _WHY.get(status, "error"),
+        }
+        for status in statuses
+    }
 
 
 def validation_reason(errors: list[Any]) -> str:
@@ -73,15 +124,27 @@ async def _audit_rejected(request: Request, body: dict[str, Any]) -> None:
     await ctx.gateway.audit(who, match[1], command, params, 422, body)
 
 
+def error_body(status: int, body: dict[str, Any]) -> dict[str, Any]:
+    """Every 422 has ``errors`` (its schema says so): a refusal found past the request's schema
+    (a polygon that crosses itself, an unknown step) is one error without a location."""
+    if status == 422 and "errors" not in body:
+        return {**body, "errors": [{"loc": [], "msg": body["detail"], "type": "invalid_input"}]}
+    return body
+
+
 def install(app: FastAPI) -> None:
-    @app.exception_handler(ApiError)
-    async def _api_error(request: Request, exc: ApiError) -> JSONResponse:
-        return JSONResponse(exc.body(), status_code=exc.status)
+    # The one mapping of domain errors to HTTP: each class carries its status.
+    @app.exception_handler(DronefleetError)
+    async def _refused(request: Request, exc: DronefleetError) -> JSONResponse:
+        return JSONResponse(error_body(exc.status, exc.body()), status_code=exc.status)
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
         errors = list(exc.errors())
-        body = {"detail": validation_reason(errors), "errors": _jsonable_errors(errors)}
+        body: dict[str, Any] = {
+            "detail": validation_reason(errors),
+            "errors": _jsonable_errors(errors),
+        }
         if request.method == "POST" and _COMMAND_PATH.match(request.url.path):
             await _audit_rejected(request, body)
         return JSONResponse(body, status_code=422)
@@ -89,4 +152,10 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
         detail = exc.detail if isinstance(exc.detail, str) else str(exc.detail)
-        return JSONResponse({"detail": detail}, status_code=exc.status_code, headers=exc.headers)
+        # FastAPI's 400 is a body it could not parse (not UTF-8, say): input the server cannot
+        # use, which everywhere else is a 422, so one status and one shape for all of it.
+        status = 422 if exc.status_code == 400 else exc.status_code
+        body = error_body(
+            status, {"detail": f"body: {detail}" if status != exc.status_code else detail}
+        )
+        return JSONResponse(body, status_code=status, headers=exc.headers)

@@ -96,7 +96,11 @@ class DroneGateway:
                 timeout_s=timeout,
             )
         except (RequestTimeout, BrokerUnavailable) as exc:
-            raise ApiError(504, f"drone {drone_id} did not answer within {timeout:g} s") from exc
+            raise ApiError(
+                504,
+                f"drone {drone_id} did not answer within {timeout:g} s"
+                " (the request was sent: it may still take effect)",
+            ) from exc
 
     async def control(
         self, drone_id: str, request: Any, timeout_s: float | None = None

@@ -13,11 +13,11 @@ from fastapi import APIRouter, Query, Request
 
 from dronefleet.clock import timestamp_s
 from dronefleet.ground.manager.context import Viewer, ctx_of
-from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.errors import ApiError, answers
 from dronefleet.ground.telemetry.store import FIELD_RE, MAX_BUCKETS, StoreError, TelemetryQuery
 from dronefleet.messaging.topics import check_drone_id
 
-router = APIRouter(prefix="/api/v1", tags=["telemetry"])
+router = APIRouter(prefix="/api/v1", tags=["telemetry"], responses=answers(401, 403, 422, 503))
 
 _DURATION = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*(us|ms|s|m|h|d)?\s*$")
 _UNIT_US = {"us": 1, "ms": 1_000, "s": 1_000_000, "m": 60_000_000, "h": 3_600_000_000}

@@ -12,7 +12,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import FileResponse, RedirectResponse
 
 from dronefleet.ground.manager.context import Viewer
-from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.errors import ApiError, answers
 
 WEB_ROOT = Path(__file__).resolve().parents[2] / "web"
 _TYPES = {
@@ -29,7 +29,8 @@ router = APIRouter(tags=["web"])
 
 
 def _file(relative: str) -> FileResponse:
-    path = (WEB_ROOT / relative).resolve()
+    # A NUL cannot be in a file name; the OS calls would refuse it with a ValueError (a 500).
+    path = WEB_ROOT if "\x00" in relative else (WEB_ROOT / relative).resolve()
     if not path.is_relative_to(WEB_ROOT) or not path.is_file():
         hint = " (run `bash scripts/web-deps.sh`)" if relative.startswith("vendor/") else ""
         raise ApiError(404, f"no web file {relative!r}{hint}")
@@ -59,7 +60,9 @@ async def web_config(request: Request) -> dict[str, Any]:
 
 
 @router.get(
-    "/api/v1/web/me", summary="Who the token belongs to: name and role (viewer/operator/admin)"
+    "/api/v1/web/me",
+    summary="Who the token belongs to: name and role (viewer/operator/admin)",
+    responses=answers(401),
 )
 async def web_me(who: Viewer) -> dict[str, Any]:
     return {"name": who.name, "role": who.role.label, "can_command": who.role >= 2}

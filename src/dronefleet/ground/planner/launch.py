@@ -8,12 +8,14 @@ with the reserve left (energy estimated from the vehicle model). A refused missi
 from __future__ import annotations
 
 import secrets
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from dronefleet.errors import Conflict, NotFound
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner import allocation
+from dronefleet.ground.planner.bounds import AreaRequest
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area
 from dronefleet.ground.planner.estimate import VehicleModel, can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
@@ -23,9 +25,16 @@ from dronefleet.ground.planner.service import MissionPlanner, PlannerError
 from dronefleet.ground.planner.units import units
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import parse_step
+from dronefleet.messaging.common import reason
 
 #: How a drone gets to its work: climbing while flying (ours) or the dissertation's way (seed).
 Strategy = Literal["ours", "seed"]
+
+if TYPE_CHECKING:
+    # Code may give any AreaSpec; MissionSpec re-checks it against the request bounds.
+    AreaField = AreaSpec | None
+else:
+    AreaField = AreaRequest | None  # what a request is validated (and documented) as
 
 
 class MissionOptions(BaseModel):
@@ -51,8 +60,26 @@ class MissionSpec(BaseModel):
     mission_id: str | None = Field(default=None, pattern=r"^[A-Za-z0-9_\-]{1,64}$")
     drones: list[str] = Field(default_factory=list, max_length=50)
     steps: list[dict[str, Any]] | None = Field(default=None, max_length=10_000)
-    area: AreaSpec | None = None
+    area: AreaField = None
     options: MissionOptions = Field(default_factory=MissionOptions)
+
+    @field_validator("area", mode="before")
+    @classmethod
+    def _bounded(cls, value: object) -> object:
+        """An AreaSpec built in code is checked against the request bounds too."""
+        if isinstance(value, AreaSpec) and not isinstance(value, AreaRequest):
+            return value.model_dump()
+        return value
+
+
+def _plan(area: AreaSpec) -> Any:
+    """The coverage plan of ``area``; the coverage planner's refusals (ValueError: a polygon that
+    is not simple or has no area, a hole outside it, too many waypoints...) are the caller's
+    input that cannot be planned, so a 422 with the planner's reason."""
+    try:
+        return plan_area(area)
+    except ValueError as exc:
+        raise PlannerError(f"area: {exc}") from exc
 
 
 def work_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
@@ -63,7 +90,7 @@ def work_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
     """
     if spec.steps is None and spec.area is None:
         raise PlannerError("give 'steps', 'area', or both")
-    plan = plan_area(spec.area) if spec.area is not None else None
+    plan = _plan(spec.area) if spec.area is not None else None
     if spec.steps is None:
         assert plan is not None  # an area was given
         return plan.mission_steps(), plan
@@ -104,13 +131,11 @@ async def assign(
     for drone_id in spec.drones:
         drone = fleet.get(drone_id)
         if drone is None:
-            raise PlannerError(f"drone {drone_id!r} is not known", status=404)
+            raise NotFound(f"drone {drone_id!r} is not known")
         if not drone.online:
-            raise PlannerError(f"drone {drone_id} is lost", status=409)
+            raise Conflict(f"drone {drone_id} is lost")
         if drone_id in busy or drone.mission_id is not None:
-            raise PlannerError(
-                f"drone {drone_id} is busy with mission {drone.mission_id}", status=409
-            )
+            raise Conflict(f"drone {drone_id} is busy with mission {drone.mission_id}")
         chosen.append(drone)
     if not chosen:
         first = next((s for s in work if s.get("command") == "navigate"), None)
@@ -119,7 +144,7 @@ async def assign(
             near = next(iter(fleet.values())).position
         pool = candidates(list(fleet.values()), near, exclude=busy) if near else []
         if not pool:
-            raise PlannerError("no idle drone is available", status=409)
+            raise Conflict("no idle drone is available")
         chosen = pool[:1]
     altitude = mission_altitude(work, spec.area.altitude_m if spec.area else 10.0)
     strategy = spec.options.strategy
@@ -135,9 +160,13 @@ async def assign(
         ]
         split = allocation.seed_equal_split if strategy == "seed" else allocation.split_route
         by_id = {d.drone_id: d for d in chosen}
+        try:
+            assignments = split(plan, slots)
+        except ValueError as exc:  # allocation's refusal: the fleet cannot fly it all
+            raise PlannerError(f"the drones cannot share the area: {exc}") from exc
         shares = [
             (by_id[a.drone_id], [i for w in a.waypoint_indices for i in groups[w]])
-            for a in split(plan, slots)
+            for a in assignments
             if a.waypoint_indices
         ]
     # An autopilot flying the mission on board completes NAV_TAKEOFF before its first waypoint
@@ -238,14 +267,17 @@ async def launch(planner: MissionPlanner, record: MissionRecord, shares: list[An
 async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
     record = planner.get(mission_id)
     if record.state is not MissionState.PLANNED:
-        raise PlannerError(f"mission {mission_id} is {record.state.value}, not planned", status=409)
+        raise Conflict(f"mission {mission_id} is {record.state.value}, not planned")
     options = {k: v for k, v in record.options.items() if k != "custom_steps"}  # record-only
-    spec = MissionSpec(
-        drones=record.drones,
-        steps=record.work if record.options.get("custom_steps", True) else None,
-        area=AreaSpec.model_validate(record.area) if record.area else None,
-        options=MissionOptions.model_validate(options),
-    )
+    try:
+        spec = MissionSpec(
+            drones=record.drones,
+            steps=record.work if record.options.get("custom_steps", True) else None,
+            area=AreaSpec.model_validate(record.area) if record.area else None,
+            options=MissionOptions.model_validate(options),
+        )
+    except ValidationError as exc:  # stored before the request bounds were tightened
+        raise PlannerError(f"mission {mission_id} can no longer be planned: {reason(exc)}") from exc
     work, plan = work_of(spec)
     record.work = work
     await launch(planner, record, await assign(planner, spec, work, plan))
@@ -267,7 +299,7 @@ async def call_drone(
         fleet, target, exclude=planner.busy_drones(), min_battery_pct=planner.reserve_pct
     )
     if not pool:
-        raise PlannerError("no drone is available to come", status=409)
+        raise Conflict("no drone is available to come")
     spec = MissionSpec(
         name=f"call to {lat:.6f},{lon:.6f}",
         drones=[pool[0].drone_id],

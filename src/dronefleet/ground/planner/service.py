@@ -16,6 +16,7 @@ from collections.abc import Callable
 from typing import Any
 
 from dronefleet.clock import timestamp_s
+from dronefleet.errors import Conflict, InvalidInput, NotFound
 from dronefleet.ground.planner.fleet_view import FleetView
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
@@ -43,12 +44,12 @@ _throttle = LogThrottle(
 PATH_SAMPLE_S = 1.0  # vehicle seconds between path points kept for the mission log
 
 
-class PlannerError(Exception):
-    """A request the planner refuses; the message says why (REST: 4xx)."""
+class PlannerError(InvalidInput):
+    """A mission the planner refuses as asked; the message says why (REST: 422).
 
-    def __init__(self, message: str, status: int = 422) -> None:
-        super().__init__(message)
-        self.status = status
+    Refusals of another kind are :class:`~dronefleet.errors.NotFound` (no such mission or drone)
+    and :class:`~dronefleet.errors.Conflict` (a drone lost or busy, a mission not planned).
+    """
 
 
 class MissionPlanner:
@@ -160,7 +161,7 @@ class MissionPlanner:
     def get(self, mission_id: str) -> MissionRecord:
         record = self.missions.get(mission_id)
         if record is None:
-            raise PlannerError(f"no mission {mission_id!r}", status=404)
+            raise NotFound(f"no mission {mission_id!r}")
         return record
 
     async def save(self, record: MissionRecord) -> None:
@@ -169,7 +170,7 @@ class MissionPlanner:
 
     async def add(self, record: MissionRecord) -> MissionRecord:
         if record.mission_id in self.missions:
-            raise PlannerError(f"mission {record.mission_id!r} exists", status=409)
+            raise Conflict(f"mission {record.mission_id!r} exists")
         self._track(record)
         await self.save(record)
         self.emit("mission", **record.summary())

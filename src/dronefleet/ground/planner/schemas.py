@@ -1,0 +1,82 @@
+"""What the Mission Planner's REST routes answer, as models, so the OpenAPI schema says it.
+
+The routes build plain dicts (:meth:`MissionRecord.summary`, :func:`launch.preview`); FastAPI
+validates them against these on the way out, so a drift between the two is a test failure, not
+a published schema that lies.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict
+
+from dronefleet.ground.planner.models import MissionState
+
+
+class MissionSummary(BaseModel):
+    mission_id: str
+    name: str
+    state: MissionState
+    drones: list[str]
+    steps: int
+    steps_done: int
+    waypoints: int
+    waypoints_reached: int
+    created_at: float
+    started_at: float | None
+    ended_at: float | None
+    handovers: int
+    expansions: int
+    error: str | None
+
+
+class MissionDetail(BaseModel):
+    """A summary's counts and the whole record but its flown paths; where both have a field,
+    the record's wins (``drones`` as planned, ``handovers`` and ``expansions`` as lists)."""
+
+    model_config = ConfigDict(extra="allow")
+    mission_id: str
+    name: str
+    state: MissionState
+    drones: list[str]
+    steps: int
+    steps_done: int
+    waypoints: int
+    waypoints_reached: int
+    created_at: float
+    started_at: float | None
+    ended_at: float | None
+    handovers: list[dict[str, Any]]
+    expansions: list[dict[str, Any]]
+    error: str | None
+    area: dict[str, Any] | None
+    work: list[dict[str, Any]]
+    done: dict[str, str]
+    required: list[int] | None
+    legs: list[dict[str, Any]]
+    alarms: list[dict[str, Any]]
+    options: dict[str, Any]
+
+
+class LatLon(BaseModel):
+    lat: float
+    lon: float
+
+
+class DroneShare(BaseModel):
+    drone_id: str
+    steps: int
+    duration_s: float
+    battery_used_pct: float
+    battery_end_pct: float
+    notes: list[str]
+
+
+class Preview(BaseModel):
+    steps: list[dict[str, Any]]
+    waypoints: list[LatLon]
+    area_m2: float | None
+    angle_deg: float | None
+    spacing_m: float | None
+    drones: list[DroneShare]
