@@ -17,12 +17,12 @@ import pytest
 import pytest_asyncio
 
 from dronefleet.drone.config import DroneConfig
-from dronefleet.drone.simulated import SimFleet
 from dronefleet.experiments.scenarios import rectangle
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.simfleet import SimFleet
 
 pytestmark = [pytest.mark.integration, pytest.mark.asyncio(loop_scope="module")]
 
