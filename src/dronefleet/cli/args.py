@@ -25,11 +25,12 @@ def port_number(text: str) -> int:
 
 
 def positive_speedup(text: str) -> float:
-    """``--speedup`` of a process on the wall clock: a positive, finite number."""
+    """``--speedup`` of a process on the wall clock (and other such figures, e.g. seconds): a
+    positive, finite number."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
     if not value > 0 or not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"--speedup must be a positive number, not {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a positive number, not {text!r}")
     return value

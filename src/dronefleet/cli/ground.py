@@ -7,7 +7,7 @@ import asyncio
 import sys
 from pathlib import Path
 
-from dronefleet.cli.args import broker_url, port_number
+from dronefleet.cli.args import broker_url, port_number, positive_speedup
 from dronefleet.signals import stop_event
 
 
@@ -33,6 +33,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--token", help="operator API token to accept (default: one is made)")
     g.add_argument("--admin-token", help="admin API token to accept")
     g.add_argument("--command-timeout", type=float, default=30.0, help="seconds per command")
+    g.add_argument(
+        "--planning-budget",
+        type=positive_speedup,  # a positive, finite number of seconds
+        default=10.0,
+        help="seconds a mission may take to plan (then 422 'too complex')",
+    )
     g.set_defaults(func=run_ground)
 
     b = sub.add_parser(
@@ -85,6 +91,7 @@ async def _ground(args: argparse.Namespace) -> int:
         token=args.token,
         admin_token=args.admin_token,
         command_timeout_s=args.command_timeout,
+        planning_budget_s=args.planning_budget,
     )
     try:
         await services.start()

@@ -83,6 +83,7 @@ class Harness:
             state_path=self.workdir / "ground.db",
             serve_http=False,
             planner_client_id="experiment-planner",
+            planning_processes=0,  # inline: on virtual time, planning takes no vehicle time
         )
         await self.ground.start()
         planner = self.ground.planner

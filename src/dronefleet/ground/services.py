@@ -24,6 +24,7 @@ from dronefleet.ground.manager.context import ManagerContext
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.manager.stream import StreamHub
 from dronefleet.ground.planner.service import MissionPlanner
+from dronefleet.ground.planner.worker import DEFAULT_BUDGET_S, PlanningWorker
 from dronefleet.ground.presence import GroundPresence
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.connector import TelemetryConnector
@@ -52,6 +53,8 @@ class GroundServices:
         command_timeout_s: float = 30.0,
         serve_http: bool = True,
         planner_client_id: str = "ground-planner",
+        planning_processes: int = 1,
+        planning_budget_s: float = DEFAULT_BUDGET_S,
     ) -> None:
         self.broker_url = (
             broker_url if isinstance(broker_url, BrokerUrl) else BrokerUrl.parse(broker_url)
@@ -63,6 +66,8 @@ class GroundServices:
         self.command_timeout_s = command_timeout_s
         self.serve_http = serve_http
         self.planner_client_id = planner_client_id
+        # Planning runs in worker processes with a budget (0: inline, for virtual time).
+        self.planning = PlanningWorker(processes=planning_processes, budget_s=planning_budget_s)
         self._given_token = token
         self._given_admin_token = admin_token
         self.operator_token: str | None = None
@@ -117,7 +122,9 @@ class GroundServices:
         self.hub = StreamHub(url, client_id=f"ground-stream-{suffix}")
         # The planner's broker session is persistent (QoS 1 progress queued while it is down), so
         # its client id must be the same across restarts of the same ground.
-        self.planner = MissionPlanner(url, self.state, client_id=self.planner_client_id)
+        self.planner = MissionPlanner(
+            url, self.state, client_id=self.planner_client_id, worker=self.planning
+        )
         for service in (self.identifier, self.connector, self.gateway, self.hub, self.planner):
             await service.start()
             self._started.append(service)

@@ -18,7 +18,6 @@ from collections.abc import Iterator
 import httpx
 import pytest
 import schemathesis
-from ground_procs import drone_cmd, ground_cmd, process, wait_http
 from hypothesis import HealthCheck, settings
 from schemathesis import Case, CheckContext, Response
 from schemathesis.specs.openapi.checks import (
@@ -31,6 +30,7 @@ from schemathesis.specs.openapi.checks import (
 from dronefleet.ground.manager.app import create_app
 from dronefleet.messaging.embedded import free_port
 from support.brokers import mosquitto
+from support.ground_procs import drone_cmd, ground_cmd, process, wait_http
 
 pytestmark = pytest.mark.integration
 

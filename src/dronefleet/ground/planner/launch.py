@@ -8,6 +8,7 @@ with the reserve left (energy estimated from the vehicle model). A refused missi
 from __future__ import annotations
 
 import secrets
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
@@ -121,12 +122,47 @@ def self_prepared(work: list[dict[str, Any]]) -> bool:
     return any(s.get("command") in ("arm", "takeoff") for s in work)
 
 
-async def assign(
-    planner: MissionPlanner, spec: MissionSpec, work: list[dict[str, Any]], plan: Any
-) -> list[tuple[DroneView, list[dict[str, Any]], list[int], dict[str, Any]]]:
-    """Which drone flies which steps, with its preparation and estimate; refuses with reasons."""
+@dataclass(frozen=True)
+class Planned:
+    """What planning a mission gives (computed in the planning worker, ground/planner/worker.py):
+    its work steps, the coverage figures a preview shows, and each drone's share."""
+
+    work: list[dict[str, Any]]
+    coverage: dict[str, Any]
+    shares: list[tuple[str, list[dict[str, Any]], list[int], dict[str, Any]]]
+
+
+def plan_mission(
+    spec: MissionSpec,
+    fleet: dict[str, DroneView],
+    busy: set[str],
+    reserve_pct: float,
+    max_altitude_m: float,
+) -> Planned:
+    """The whole CPU part of planning: coverage, split, estimates (runs in a worker process)."""
+    work, plan = work_of(spec)
+    check_altitudes(work, max_altitude_m)
+    shares = assign(spec, work, plan, fleet, busy, reserve_pct)
+    coverage = {
+        "waypoints": [{"lat": p.lat, "lon": p.lon} for p in plan.waypoints] if plan else [],
+        "area_m2": round(plan.area_m2, 1) if plan else None,
+        "angle_deg": getattr(plan, "angle_deg", None),
+        "spacing_m": getattr(plan, "spacing_m", None),
+    }
+    return Planned(work, coverage, [(d.drone_id, pre, idx, est) for d, pre, idx, est in shares])
+
+
+async def planned(planner: MissionPlanner, spec: MissionSpec) -> Planned:
+    """Plan ``spec`` for the fleet as it is now, off the event loop and within the budget."""
     fleet = {d.drone_id: d for d in await planner.fleet.drones()}
-    busy = planner.busy_drones()
+    return await planner.worker.run(
+        plan_mission, spec, fleet, planner.busy_drones(), planner.reserve_pct,
+        planner.max_altitude_m,
+    )  # fmt: skip
+
+
+def _chosen(spec: MissionSpec, work: list[dict[str, Any]], fleet: dict[str, DroneView],
+            busy: set[str]) -> list[DroneView]:  # fmt: skip
     chosen: list[DroneView] = []
     for drone_id in spec.drones:
         drone = fleet.get(drone_id)
@@ -146,6 +182,19 @@ async def assign(
         if not pool:
             raise Conflict("no idle drone is available")
         chosen = pool[:1]
+    return chosen
+
+
+def assign(
+    spec: MissionSpec,
+    work: list[dict[str, Any]],
+    plan: Any,
+    fleet: dict[str, DroneView],
+    busy: set[str],
+    reserve_pct: float,
+) -> list[tuple[DroneView, list[dict[str, Any]], list[int], dict[str, Any]]]:
+    """Which drone flies which steps, with its preparation and estimate; refuses with reasons."""
+    chosen = _chosen(spec, work, fleet, busy)
     altitude = mission_altitude(work, spec.area.altitude_m if spec.area else 10.0)
     strategy = spec.options.strategy
     if len(chosen) == 1 or plan is None or spec.steps is not None:
@@ -184,7 +233,7 @@ async def assign(
             battery_pct=drone.battery_pct,
             model=VehicleModel.of_vehicle(drone.flight),  # its own autopilot's figures
         )
-        ok, why = can_finish(est, reserve_pct=planner.reserve_pct)
+        ok, why = can_finish(est, reserve_pct=reserve_pct)
         if not ok and not _relief_exists(spec, fleet, busy, chosen, est):
             raise PlannerError(f"drone {drone.drone_id} cannot finish its share: {why}")
         if not ok:
@@ -216,18 +265,13 @@ def _relief_exists(spec: MissionSpec, fleet: dict, busy: set, chosen: list, est:
 
 
 async def preview(planner: MissionPlanner, spec: MissionSpec) -> dict[str, Any]:
-    work, plan = work_of(spec)
-    check_altitudes(work, planner.max_altitude_m)
-    shares = await assign(planner, spec, work, plan)
+    done = await planned(planner, spec)
     return {
-        "steps": work,
-        "waypoints": [{"lat": p.lat, "lon": p.lon} for p in plan.waypoints] if plan else [],
-        "area_m2": round(plan.area_m2, 1) if plan else None,
-        "angle_deg": getattr(plan, "angle_deg", None),
-        "spacing_m": getattr(plan, "spacing_m", None),
+        "steps": done.work,
+        **done.coverage,
         "drones": [
-            {"drone_id": d.drone_id, "steps": len(prefix) + len(idx), **est}
-            for d, prefix, idx, est in shares
+            {"drone_id": drone_id, "steps": len(prefix) + len(idx), **est}
+            for drone_id, prefix, idx, est in done.shares
         ],
     }
 
@@ -235,29 +279,27 @@ async def preview(planner: MissionPlanner, spec: MissionSpec) -> dict[str, Any]:
 async def create(
     planner: MissionPlanner, spec: MissionSpec, *, start: bool = False
 ) -> MissionRecord:
-    work, plan = work_of(spec)
-    check_altitudes(work, planner.max_altitude_m)
-    shares = await assign(planner, spec, work, plan)
+    done = await planned(planner, spec)
     record = MissionRecord(
         mission_id=spec.mission_id or f"M{secrets.token_hex(4)}",
         name=spec.name,
-        drones=[d.drone_id for d, *_ in shares],
+        drones=[drone_id for drone_id, *_ in done.shares],
         area=spec.area.model_dump(mode="json") if spec.area else None,
-        work=work,
+        work=done.work,
         options={**spec.options.model_dump(mode="json"), "custom_steps": spec.steps is not None},
     )
     await planner.add(record)
     if start:
-        await launch(planner, record, shares)
+        await launch(planner, record, done.shares)
     return record
 
 
 async def launch(planner: MissionPlanner, record: MissionRecord, shares: list[Any]) -> None:
     record.state = MissionState.RUNNING
-    for drone, prefix, indices, _est in shares:
+    for drone_id, prefix, indices, _est in shares:
         leg = Leg(
             leg_id=planner.next_leg_id(record),
-            drone_id=drone.drone_id,
+            drone_id=drone_id,
             prefix=prefix,
             indices=indices,
         )
@@ -278,9 +320,9 @@ async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
         )
     except ValidationError as exc:  # stored before the request bounds were tightened
         raise PlannerError(f"mission {mission_id} can no longer be planned: {reason(exc)}") from exc
-    work, plan = work_of(spec)
-    record.work = work
-    await launch(planner, record, await assign(planner, spec, work, plan))
+    done = await planned(planner, spec)
+    record.work = done.work
+    await launch(planner, record, done.shares)
     return record
 
 

@@ -28,6 +28,7 @@ from dronefleet.ground.planner.models import (
 )
 from dronefleet.ground.planner.store import MissionStore
 from dronefleet.ground.planner.units import remaining
+from dronefleet.ground.planner.worker import PlanningWorker
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
@@ -61,8 +62,10 @@ class MissionPlanner:
         client_id: str = "ground-planner",
         max_altitude_m: float = 120.0,
         reserve_pct: float = 20.0,
+        worker: PlanningWorker | None = None,
     ) -> None:
         self.client = BrokerClient(broker_url, client_id, persistent_session=True)
+        self.worker = worker or PlanningWorker()  # planning off the event loop, with a budget
         self.requester = Requester(self.client)
         self.fleet = FleetView(self.requester)
         self.store = MissionStore(state)
@@ -119,6 +122,7 @@ class MissionPlanner:
             with contextlib.suppress(Exception):
                 await self.store.save(self.missions[record_id])
         await self.client.stop()
+        await asyncio.get_running_loop().run_in_executor(None, self.worker.close)
 
     def _track(self, record: MissionRecord) -> None:
         self.missions[record.mission_id] = record
