@@ -1,10 +1,11 @@
-"""One ground per broker: a second ``dronefleet ground`` on the same broker refuses to start.
+"""One ground per planner session: a second ``dronefleet ground`` with the same planner session
+on the same broker refuses to start.
 
-The Mission Planner's broker session is persistent and keyed by a configured client id
-(``ground-planner``), so that progress reports queued while the ground is down reach it when it
-is back. A second ground with that id took the session over from the first ("performing
-take-over"): progress reports were lost and a departing drone flew back to an old waypoint
-(issue 11). Every ground therefore announces itself on ``ground/presence``, retained, every
+The Mission Planner's broker session is persistent and keyed by a configured client id (``ground-
+planner``), so that progress reports queued while the ground is down reach it when it is back. A
+second ground with that id took the session over from the first ("performing take-over"): progress
+reports were lost and a departing drone flew back to an old waypoint (issue 11). Every ground
+therefore announces itself on ``ground/presence/<planner session id>``, retained, every
 :data:`PRESENCE_S`. One that starts looks first: no announcement, or its own, and it goes on at
 once; another ground's announcement must then be repeated live within :data:`STALE_AFTER_S` for
 that ground to count as running (a ground that died leaves its last one behind). A ground that
@@ -23,7 +24,7 @@ from dronefleet import clock
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import BrokerClient
 
-TOPIC = topics.ground("presence")
+TOPIC = topics.ground("presence", "{planner_id}")  # one claim per planner session
 #: Seconds between announcements.
 PRESENCE_S = 2.0
 #: An announcement not repeated within this long belongs to a ground that is gone.
@@ -41,13 +42,16 @@ class GroundPresence:
         self.instance = secrets.token_hex(6)
         self.planner_id = planner_id
         self.client = BrokerClient(broker_url, f"ground-presence-{self.instance}")
+        if any(c in planner_id for c in "/+#"):
+            raise ValueError(f"planner session id {planner_id!r} may not contain / + or #")
+        self.topic = TOPIC.format(planner_id=planner_id)
         self._seen: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
         self._task: asyncio.Task[None] | None = None
 
     async def start(self) -> None:
         """Claim the broker, or raise :class:`GroundAlreadyRunning` with who holds it."""
         await self.client.start()
-        await self.client.subscribe(TOPIC, self._on_presence)
+        await self.client.subscribe(self.topic, self._on_presence)
         other = await self._other()
         if other is not None:
             await self.client.stop()
@@ -66,7 +70,7 @@ class GroundPresence:
                 await self._task
             self._task = None
             with contextlib.suppress(Exception):  # leave no claim behind
-                await self.client.publish(TOPIC, b"", retain=True, timeout_s=2.0)
+                await self.client.publish(self.topic, b"", retain=True, timeout_s=2.0)
         await self.client.stop()
 
     async def _other(self) -> dict[str, Any] | None:
@@ -98,7 +102,7 @@ class GroundPresence:
 
     async def _announce(self) -> None:
         body = {"instance": self.instance, "planner_id": self.planner_id}
-        await self.client.publish(TOPIC, json.dumps(body).encode(), retain=True)
+        await self.client.publish(self.topic, json.dumps(body).encode(), retain=True)
 
     async def _announce_forever(self) -> None:
         while True:

@@ -29,8 +29,12 @@ async def test_sqlite_and_influxdb_answer_the_same(tmp_path):
             state_path=tmp_path / "a.db",
             http_port=0,
         )
-        influx_ground = GroundServices(
-            broker, store_url=influx_url, state_path=tmp_path / "b.db", http_port=0
+        influx_ground = GroundServices(  # a second ground: its own planner session
+            broker,
+            store_url=influx_url,
+            state_path=tmp_path / "b.db",
+            http_port=0,
+            planner_client_id="ground-planner-influx",
         )
         async with sqlite_ground, influx_ground, SimFleet(speedup=5) as fleet:
             ids = ["TEL_A", "TEL_B", "TEL_C"]
