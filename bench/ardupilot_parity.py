@@ -168,6 +168,16 @@ def run_case(
         ours = fly_ours(ground, spec, drones)
         again = None
         if twice:  # a fresh pack each, then the same mission estimated with the measured draw
+            # An area ends hovering at its last waypoint; ArduPilot resets a battery only when
+            # disarmed, so each vehicle comes home and lands first.
+            for d in drones:
+                if ground.drone(d)["state"] != "disarmed":
+                    ground.api("POST", f"/api/v1/drones/{d}/commands/rtl")
+            deadline = time.monotonic() + 300
+            while any(ground.drone(d)["state"] != "disarmed" for d in drones):
+                if time.monotonic() > deadline:
+                    raise TimeoutError("the vehicles did not land and disarm after RTL")
+                time.sleep(1)
             for _attempt in range(3):
                 for vehicle in vehicles:
                     vehicle.swap_battery()

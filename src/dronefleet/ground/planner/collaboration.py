@@ -57,21 +57,7 @@ async def extend(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str,
             await planner.save(record)
             return
         strategy = record.options.get("strategy", "ours")
-        spec = AreaSpec.model_validate(record.area)
         factor = 1.0 + 0.5 * len(joiners)
-        if strategy == "seed":
-            new_spec = seed_grid_rebuild(spec, centre, factor)
-        else:  # exactly the area the rule asks for, lines inset half a spacing from the edges
-            inset = AreaSpec.model_validate({**spec.model_dump(mode="json"), "grid": "inset"})
-            new_spec = rebuild(inset, centre, factor)
-        plan = plan_area(new_spec)
-        new_work = plan.mission_steps()
-        offset = len(record.work)
-        record.work.extend(new_work)
-        new_indices = list(range(offset, offset + len(new_work)))
-        record.required = [i for i in record.required_indices() if i in record.done] + new_indices
-        record.area = new_spec.model_dump(mode="json")
-        groups = [[i + offset for i in g] for g in units(new_work)]
         slots = [
             allocation.DroneSlot(
                 drone_id=d.drone_id,
@@ -82,13 +68,20 @@ async def extend(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str,
             )
             for d in team
         ]
-        split = allocation.seed_equal_split if strategy == "seed" else allocation.split_route
-        assignments = split(plan, slots)
+        # The grown area's coverage and split are CPU work: the planning worker does them.
+        new_spec, new_work, assignments, covered = await planner.worker.run(
+            grown, record.area, centre, factor, strategy, slots
+        )
+        offset = len(record.work)
+        record.work.extend(new_work)
+        new_indices = list(range(offset, offset + len(new_work)))
+        record.required = [i for i in record.required_indices() if i in record.done] + new_indices
+        record.area = new_spec.model_dump(mode="json")
+        groups = [[i + offset for i in g] for g in units(new_work)]
         expansion.update(
             area_factor=factor,
             joined=[d.drone_id for d in joiners],
-            waypoints=len(plan.waypoints),
-            area_m2=round(plan.area_m2, 1),
+            **covered,
             assignments={a.drone_id: len(a.waypoint_indices) for a in assignments},
         )
         altitude = new_spec.altitude_m
@@ -122,3 +115,24 @@ async def extend(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str,
         await planner.save(record)
     planner.emit("expansion", mission_id=record.mission_id, **expansion)
     log.info("mission %s extended: %s", record.mission_id, expansion)
+
+
+def grown(
+    area: dict[str, Any],
+    centre: LLA,
+    factor: float,
+    strategy: str,
+    slots: list[allocation.DroneSlot],
+) -> tuple[AreaSpec, list[dict[str, Any]], list[Any], dict[str, Any]]:
+    """The area grown ``factor`` times around ``centre``, its steps, their split among ``slots``
+    and its figures (runs in the planning worker: ground/planner/worker.py)."""
+    spec = AreaSpec.model_validate(area)
+    if strategy == "seed":
+        new_spec = seed_grid_rebuild(spec, centre, factor)
+    else:  # exactly the area the rule asks for, lines inset half a spacing from the edges
+        inset = AreaSpec.model_validate({**spec.model_dump(mode="json"), "grid": "inset"})
+        new_spec = rebuild(inset, centre, factor)
+    plan = plan_area(new_spec)
+    split = allocation.seed_equal_split if strategy == "seed" else allocation.split_route
+    covered = {"waypoints": len(plan.waypoints), "area_m2": round(plan.area_m2, 1)}
+    return new_spec, plan.mission_steps(), split(plan, slots), covered

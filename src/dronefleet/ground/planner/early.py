@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
 from dronefleet.ground.planner.replacement import camera_state, pick
@@ -66,58 +68,30 @@ async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
     drone = await planner.fleet.drone(leg.drone_id)
     if drone is None:
         return
-    work = record.work
-
-    def cost(indices: list[int]):
-        return estimate(
-            [work[i] for i in indices],
-            start=here,
-            home=drone.home,
-            airborne=True,
-            battery_pct=battery,
-        )
-
-    if can_finish(cost(left), reserve_pct=planner.reserve_pct)[0]:
-        return
-    groups = units(work, left)
-    keep = _units_within(
-        groups, lambda indices: can_finish(cost(indices), reserve_pct=planner.reserve_pct)[0]
-    )
-    kept = [i for g in groups[:keep] for i in g]
-    rest = [i for g in groups[keep:] for i in g]
-    t_old = cost(kept).duration_s if kept else 0.0
-    leave = next((work[i] for i in reversed(kept) if work[i].get("command") == "navigate"), None)
-    leave_at = (leave["lat"], leave["lon"]) if leave else (here.lat, here.lon)
-    altitude = mission_altitude(work)
-    strategy = record.options.get("strategy", "ours")
     fleet = await planner.fleet.drones()
-    chosen, prefix = pick(
-        planner,
+    # Estimates per unit of work and per candidate: CPU work, done by the planning worker.
+    decision = await planner.worker.run(
+        decide,
+        record.work,
+        left,
+        here,
+        drone.home,
+        battery,
+        planner.reserve_pct,
         fleet,
-        record,
-        leave_at,
-        [work[i] for i in rest],
-        altitude,
         planner.busy_drones() | {leg.drone_id},
-        strategy,
+        record.options.get("strategy", "ours"),
     )
-    if chosen is None:
-        if keep == 0:
-            log.warning(
-                "mission %s: %s cannot finish and %s", record.mission_id, leg.drone_id, prefix
-            )
+    if decision is None:
         return
-    # Approach 3 m above the work so the two drones never share a height at the handover.
-    prefix = preparation(chosen, altitude, strategy=strategy, go_to=leave_at, transit_offset_m=3.0)
-    t_new = estimate(
-        prefix,
-        start=chosen.position,
-        home=chosen.home,
-        airborne=chosen.airborne,
-        battery_pct=chosen.battery_pct,
-    ).duration_s
-    if t_old > t_new + LAUNCH_MARGIN_S:
-        return  # not yet: checked again after the next step
+    if isinstance(decision, str):
+        log.warning(
+            "mission %s: %s cannot finish and %s", record.mission_id, leg.drone_id, decision
+        )
+        return
+    chosen, prefix, kept, rest = decision.chosen, decision.prefix, decision.kept, decision.rest
+    keep, t_old, t_new, leave_at = decision.keep, decision.t_old, decision.t_new, decision.leave_at
+    groups = decision.units
     async with planner._lock:
         if not leg.active or record.terminal:
             return
@@ -167,3 +141,65 @@ async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
     log.info(
         "mission %s: early handover %s -> %s", record.mission_id, leg.drone_id, chosen.drone_id
     )
+
+
+@dataclass(frozen=True)
+class Handover:
+    """An early handover worked out by :func:`decide`."""
+
+    chosen: DroneView  # the drone taking over
+    prefix: list[dict[str, Any]]  # its way there
+    kept: list[int]  # indices the leaving drone still flies
+    rest: list[int]  # indices handed over
+    units: list[list[int]]  # the units of work left
+    keep: int  # how many of them it keeps
+    t_old: float  # seconds the leaving drone still flies
+    t_new: float  # seconds the new one needs to get there
+    leave_at: tuple[float, float]
+
+
+def decide(
+    work: list[dict[str, Any]],
+    left: list[int],
+    here: LLA,
+    home: LLA,
+    battery: float,
+    reserve_pct: float,
+    fleet: list[DroneView],
+    busy: set[str],
+    strategy: str,
+) -> Handover | str | None:
+    """Whether to hand the rest of ``left`` over now: None (not yet, or no need), a reason why
+    nobody can, or the handover. Runs in the planning worker (ground/planner/worker.py)."""
+
+    def cost(indices: list[int]) -> Any:
+        steps = [work[i] for i in indices]
+        return estimate(steps, start=here, home=home, airborne=True, battery_pct=battery)
+
+    if can_finish(cost(left), reserve_pct=reserve_pct)[0]:
+        return None
+    groups = units(work, left)
+    keep = _units_within(groups, lambda idx: can_finish(cost(idx), reserve_pct=reserve_pct)[0])
+    kept = [i for g in groups[:keep] for i in g]
+    rest = [i for g in groups[keep:] for i in g]
+    t_old = cost(kept).duration_s if kept else 0.0
+    leave = next((work[i] for i in reversed(kept) if work[i].get("command") == "navigate"), None)
+    leave_at = (leave["lat"], leave["lon"]) if leave else (here.lat, here.lon)
+    altitude = mission_altitude(work)
+    chosen, prefix = pick(
+        reserve_pct, fleet, leave_at, [work[i] for i in rest], altitude, busy, strategy
+    )
+    if chosen is None:
+        return str(prefix) if keep == 0 else None
+    # Approach 3 m above the work so the two drones never share a height at the handover.
+    prefix = preparation(chosen, altitude, strategy=strategy, go_to=leave_at, transit_offset_m=3.0)
+    t_new = estimate(
+        prefix,
+        start=chosen.position,
+        home=chosen.home,
+        airborne=chosen.airborne,
+        battery_pct=chosen.battery_pct,
+    ).duration_s
+    if t_old > t_new + LAUNCH_MARGIN_S:
+        return None  # not yet: checked again after the next step
+    return Handover(chosen, prefix, kept, rest, groups, keep, t_old, t_new, leave_at)

@@ -30,16 +30,16 @@ def camera_state(record: MissionRecord, leg: Leg) -> float:
 
 
 def pick(
-    planner: Any,
+    reserve_pct: float,
     fleet: list[DroneView],
-    record: MissionRecord,
     near: tuple[float, float],
     work_steps: list[dict[str, Any]],
     altitude_m: float,
     exclude: set[str],
     strategy: str,
 ) -> tuple[DroneView, list[dict[str, Any]]] | tuple[None, str]:
-    """The nearest candidate that can finish; or (None, reason)."""
+    """The nearest candidate that can finish; or (None, reason). CPU work (an estimate per
+    candidate): callers run it in the planning worker (ground/planner/worker.py)."""
     from dronefleet.geo.types import LLA
 
     target = LLA(near[0], near[1])
@@ -53,7 +53,7 @@ def pick(
             airborne=drone.airborne,
             battery_pct=drone.battery_pct,
         )
-        ok, why = can_finish(est, reserve_pct=planner.reserve_pct)
+        ok, why = can_finish(est, reserve_pct=reserve_pct)
         if ok:
             return drone, prefix
         reasons.append(f"{drone.drone_id}: {why}")
@@ -106,10 +106,10 @@ async def replace(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str
         chosen, prefix_or_reason = (
             (None, why)
             if not fleet
-            else pick(
-                planner,
+            else await planner.worker.run(
+                pick,
+                planner.reserve_pct,
                 fleet,
-                record,
                 near,
                 work,
                 altitude,
