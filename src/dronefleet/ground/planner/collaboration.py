@@ -19,13 +19,16 @@ from dronefleet.ground.planner.coverage import AreaSpec, plan_area, rebuild, see
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import preparation
 from dronefleet.ground.planner.models import Leg, LegState, MissionRecord
+from dronefleet.ground.planner.ops import PlannerOps
 from dronefleet.ground.planner.units import units
 
 log = logging.getLogger(__name__)
 
 
-async def extend(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str, Any]) -> None:
-    async with planner._lock:
+async def extend(
+    planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: dict[str, Any]
+) -> None:
+    async with planner.lock:
         limit = int(record.options.get("max_expansions", 1))
         if record.area is None or len(record.expansions) >= limit or not leg.active:
             return

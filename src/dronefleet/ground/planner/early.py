@@ -19,6 +19,7 @@ from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.ops import PlannerOps
 from dronefleet.ground.planner.replacement import camera_state, pick
 from dronefleet.ground.planner.units import remaining, units
 
@@ -28,11 +29,11 @@ log = logging.getLogger(__name__)
 LAUNCH_MARGIN_S = 1.5
 
 
-async def check(planner: Any, record: MissionRecord, leg: Leg) -> None:
+async def check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
     try:
         await _check(planner, record, leg)
     finally:
-        planner._checking.discard(leg.leg_id)
+        planner.checking.discard(leg.leg_id)
 
 
 def _watched(record: MissionRecord, leg: Leg) -> bool:
@@ -54,7 +55,7 @@ def _units_within(groups: list[list[int]], fits: Callable[[list[int]], bool]) ->
     return keep
 
 
-async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
+async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
     if not _watched(record, leg):
         return
     latest = planner.latest.get(leg.drone_id)
@@ -92,7 +93,7 @@ async def _check(planner: Any, record: MissionRecord, leg: Leg) -> None:
     chosen, prefix, kept, rest = decision.chosen, decision.prefix, decision.kept, decision.rest
     keep, t_old, t_new, leave_at = decision.keep, decision.t_old, decision.t_new, decision.leave_at
     groups = decision.units
-    async with planner._lock:
+    async with planner.lock:
         if not leg.active or record.terminal:
             return
         leg.state = LegState.REPLACED

@@ -15,6 +15,7 @@ from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.ops import PlannerOps
 from dronefleet.ground.planner.units import remaining
 
 log = logging.getLogger(__name__)
@@ -60,9 +61,11 @@ def pick(
     return None, "no idle drone can take over" + (f" ({'; '.join(reasons)})" if reasons else "")
 
 
-async def replace(planner: Any, record: MissionRecord, leg: Leg, alarm: dict[str, Any]) -> None:
+async def replace(
+    planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: dict[str, Any]
+) -> None:
     """Replace the drone flying ``leg`` after its CRITICAL ``alarm``."""
-    async with planner._lock:
+    async with planner.lock:
         if leg.role in ("recovery", "leaving"):
             return  # already on its way out: its replacement is planned
         if not leg.active or any(h["from_leg"] == leg.leg_id for h in record.handovers):

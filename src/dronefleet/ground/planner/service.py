@@ -81,6 +81,16 @@ class MissionPlanner:
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self._checking: set[str] = set()  # legs whose early-replacement check is running
 
+    @property
+    def lock(self) -> asyncio.Lock:
+        """Held while a mission's legs change (ground/planner/ops.py)."""
+        return self._lock
+
+    @property
+    def checking(self) -> set[str]:
+        """Legs whose early-replacement check is running."""
+        return self._checking
+
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self) -> MissionPlanner:
         await self.store.open()

@@ -1,0 +1,45 @@
+"""What replacement, early replacement and collaboration may do with the Mission Planner.
+
+They used to take ``planner: Any`` and reach into its private lock and bookkeeping (issue 15).
+This protocol is the whole of what they need: the fleet, the planning worker, the planner's
+figures, its mission lock, and the operations that change a mission (send or stop a leg, save,
+tell listeners). :class:`~dronefleet.ground.planner.service.MissionPlanner` satisfies it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any, Protocol
+
+from dronefleet.ground.planner.fleet_view import FleetView
+from dronefleet.ground.planner.models import Leg, LegState, MissionRecord
+from dronefleet.ground.planner.worker import PlanningWorker
+
+
+class PlannerOps(Protocol):
+    fleet: FleetView
+    worker: PlanningWorker
+    reserve_pct: float
+    latest: dict[str, dict[str, Any]]  # drone id -> its latest telemetry fields
+
+    @property
+    def lock(self) -> asyncio.Lock:
+        """Held while a mission's legs change."""
+        ...
+
+    @property
+    def checking(self) -> set[str]:
+        """Legs whose early-replacement check is running."""
+        ...
+
+    def busy_drones(self) -> set[str]: ...
+
+    def next_leg_id(self, record: MissionRecord) -> str: ...
+
+    async def send_leg(self, record: MissionRecord, leg: Leg) -> None: ...
+
+    async def stop_leg(self, leg: Leg, *, state: LegState = ...) -> None: ...
+
+    async def save(self, record: MissionRecord) -> None: ...
+
+    def emit(self, event: str, /, **data: Any) -> None: ...
