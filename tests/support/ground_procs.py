@@ -36,9 +36,10 @@ def drone_cmd(drone_id: str, broker: str, speedup: float = 10.0) -> list[str]:
 def ground_cmd(
     broker: str, tmp: Path, port: int, token: str, store: str | None = None
 ) -> list[str]:
+    # --token=VALUE: a random token may start with "-", which argparse takes for an option.
     return dronefleet(
         "ground", "--broker", broker, "--store", store or f"sqlite:///{tmp}/telemetry.db",
-        "--state", str(tmp / "ground.db"), "--http", f"127.0.0.1:{port}", "--token", token,
+        "--state", str(tmp / "ground.db"), "--http", f"127.0.0.1:{port}", f"--token={token}",
         "--command-timeout", "20",
     )  # fmt: skip
 
