@@ -5,6 +5,7 @@ from fastapi import FastAPI
 from dronefleet import __version__
 from dronefleet.ground.manager import admin, control, drones, errors, stream, telemetry, web
 from dronefleet.ground.manager.context import ManagerContext
+from dronefleet.ground.manager.schemas import Health
 
 DESCRIPTION = """
 The ground side of dronefleet: the Drone Manager (seed 4.2.3). Send commands to drones, start and
@@ -27,7 +28,12 @@ def create_app(ctx: ManagerContext) -> FastAPI:
     for module in (drones, control, telemetry, admin, stream, planner_api, web):
         app.include_router(module.router)
 
-    @app.get("/api/v1/health", tags=["admin"], summary="Liveness of the ground services")
+    @app.get(
+        "/api/v1/health",
+        tags=["admin"],
+        summary="Liveness of the ground services",
+        response_model=Health,
+    )
     async def health() -> dict[str, object]:
         return {"ok": True, "version": __version__}
 

@@ -18,6 +18,7 @@ from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import ctx_of
 from dronefleet.ground.manager.drones import MIN_TIMEOUT_S, run_control, run_mission
 from dronefleet.ground.manager.errors import ApiError, answers
+from dronefleet.ground.manager.schemas import CommandAnswer, Drone, Gear, MissionAnswer
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import reason
 from dronefleet.messaging.missions import MissionAction, MissionRequest
@@ -74,6 +75,8 @@ def _timeout(params: dict[str, Any]) -> float | None:
 #: Parameters come from the query, a form or a JSON body (read by hand, as the seed allowed),
 #: so only the answers are documented: every refusal the drone routes give, and 405/415.
 _ANSWERS = answers(401, 403, 404, 405, 409, 415, 422, 504)
+#: discover: the fleet; getgear: the gear; a command: its answer; a mission: its first report.
+ControlAnswer = list[Drone] | Gear | CommandAnswer | MissionAnswer
 
 
 @router.get(
@@ -81,12 +84,16 @@ _ANSWERS = answers(401, 403, 404, 405, 409, 415, 422, 504)
     summary="The seed's control endpoint (reads)",
     operation_id="control_get",
     responses=_ANSWERS,
+    response_model=ControlAnswer,
+    response_model_exclude_unset=True,
 )
 @router.post(
     "/control",
     summary="The seed's control endpoint",
     operation_id="control_post",
     responses=_ANSWERS,
+    response_model=ControlAnswer,
+    response_model_exclude_unset=True,
 )
 async def control(request: Request) -> Any:
     params = await _params(request)

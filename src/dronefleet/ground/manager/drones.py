@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from dronefleet.ground.manager.auth import Principal
 from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
 from dronefleet.ground.manager.errors import ApiError, answers
+from dronefleet.ground.manager.schemas import CommandAnswer, Drone, Gear, MissionAnswer
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command, ControlRequest, parse_control
 from dronefleet.messaging.gear import GearQuery, GearRequest
@@ -43,17 +44,32 @@ Timeout = Annotated[
 _HIDDEN = {"command", "request_id", "sender"}
 
 
-@router.get("", summary="List every drone the Drone Identifier knows (seed: discover)")
+@router.get(
+    "",
+    summary="List every drone the Drone Identifier knows (seed: discover)",
+    response_model=list[Drone],
+    response_model_exclude_unset=True,
+)
 async def list_drones(request: Request, who: Viewer) -> list[dict[str, Any]]:
     return await ctx_of(request).gateway.fleet()
 
 
-@router.get("/{drone_id}", summary="One drone: position, battery, state, gear, liveness")
+@router.get(
+    "/{drone_id}",
+    summary="One drone: position, battery, state, gear, liveness",
+    response_model=Drone,
+    response_model_exclude_unset=True,
+)
 async def get_drone(request: Request, who: Viewer, drone_id: DroneId) -> dict[str, Any]:
     return await ctx_of(request).gateway.drone(drone_id)
 
 
-@router.get("/{drone_id}/gear", summary="Specifications and sensors (seed: getgear)")
+@router.get(
+    "/{drone_id}/gear",
+    summary="Specifications and sensors (seed: getgear)",
+    response_model=Gear,
+    response_model_exclude_unset=True,
+)
 async def get_gear(
     request: Request, who: Viewer, drone_id: DroneId, timeout_s: Timeout = None
 ) -> dict[str, Any]:
@@ -67,7 +83,12 @@ async def get_gear(
     return gear
 
 
-@router.get("/{drone_id}/objects/{name}", summary="Request a flight-controller object")
+@router.get(
+    "/{drone_id}/objects/{name}",
+    summary="Request a flight-controller object",
+    response_model=CommandAnswer,
+    response_model_exclude_unset=True,
+)
 async def get_object(
     request: Request,
     who: Viewer,
@@ -142,6 +163,8 @@ def _add_command_route(command: Command, body_model: type[BaseModel], doc: str) 
         summary=f"Command: {command.value}",
         description=doc,
         name=f"command_{command.value}",
+        response_model=CommandAnswer,
+        response_model_exclude_unset=True,
     )(handler)
 
 
@@ -193,7 +216,12 @@ async def run_mission(
     return await audited(request, who, drone_id, command, params, call())
 
 
-@router.post("/{drone_id}/mission", summary="Start a mission (seed: startchain)")
+@router.post(
+    "/{drone_id}/mission",
+    summary="Start a mission (seed: startchain)",
+    response_model=MissionAnswer,
+    response_model_exclude_unset=True,
+)
 async def start_mission(
     request: Request,
     who: Operator,
@@ -208,7 +236,12 @@ async def start_mission(
     return await run_mission(request, who, drone_id, message, timeout_s)
 
 
-@router.post("/{drone_id}/mission/stop", summary="Stop the running mission (seed: stopchain)")
+@router.post(
+    "/{drone_id}/mission/stop",
+    summary="Stop the running mission (seed: stopchain)",
+    response_model=MissionAnswer,
+    response_model_exclude_unset=True,
+)
 async def stop_mission(
     request: Request,
     who: Operator,

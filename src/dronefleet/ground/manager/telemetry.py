@@ -14,6 +14,7 @@ from fastapi import APIRouter, Query, Request
 from dronefleet.clock import timestamp_s
 from dronefleet.ground.manager.context import Viewer, ctx_of
 from dronefleet.ground.manager.errors import ApiError, answers
+from dronefleet.ground.manager.schemas import Telemetry as TelemetryAnswer
 from dronefleet.ground.telemetry.store import FIELD_RE, MAX_BUCKETS, StoreError, TelemetryQuery
 from dronefleet.messaging.topics import check_drone_id
 
@@ -50,7 +51,11 @@ def parse_time_us(name: str, text: str) -> int:
     return round(seconds * 1e6)
 
 
-@router.get("/telemetry", summary="One drone's telemetry over a time range, downsampled")
+@router.get(
+    "/telemetry",
+    summary="One drone's telemetry over a time range, downsampled",
+    response_model=TelemetryAnswer,
+)
 async def get_telemetry(
     request: Request,
     who: Viewer,

@@ -13,6 +13,7 @@ from fastapi.responses import FileResponse, RedirectResponse
 
 from dronefleet.ground.manager.context import Viewer
 from dronefleet.ground.manager.errors import ApiError, answers
+from dronefleet.ground.manager.schemas import Me, WebConfig
 
 WEB_ROOT = Path(__file__).resolve().parents[2] / "web"
 _TYPES = {
@@ -54,7 +55,11 @@ async def static(relative: str) -> FileResponse:
     return _file(relative)
 
 
-@router.get("/api/v1/web/config", summary="What the web apps need: the map tile URL (or none)")
+@router.get(
+    "/api/v1/web/config",
+    summary="What the web apps need: the map tile URL (or none)",
+    response_model=WebConfig,
+)
 async def web_config(request: Request) -> dict[str, Any]:
     return {"tiles": getattr(request.app.state, "web_tiles", None)}
 
@@ -63,6 +68,7 @@ async def web_config(request: Request) -> dict[str, Any]:
     "/api/v1/web/me",
     summary="Who the token belongs to: name and role (viewer/operator/admin)",
     responses=answers(401),
+    response_model=Me,
 )
 async def web_me(who: Viewer) -> dict[str, Any]:
     return {"name": who.name, "role": who.role.label, "can_command": who.role >= 2}

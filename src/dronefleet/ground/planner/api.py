@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from dronefleet.errors import DronefleetError, NoAnswer, Unavailable
 from dronefleet.ground.manager.context import Operator, Viewer, ctx_of
 from dronefleet.ground.manager.errors import answers
+from dronefleet.ground.manager.schemas import MissionLog
 from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.launch import MissionSpec
 from dronefleet.ground.planner.mission_log import build_log
@@ -128,7 +129,7 @@ async def stop(request: Request, mission_id: str, who: Operator) -> MissionSumma
     "/missions/{mission_id}/log",
     summary="The mission log (JSON) for the replay viewer",
     responses={
-        200: {"content": {"application/json": {"schema": {"type": "object"}}}},
+        200: {"model": MissionLog},
         **answers(404),
     },
 )

@@ -1,0 +1,143 @@
+"""What the manager's routes answer, as named models, so ``/openapi.json`` names a schema for
+every 2xx response (issue 15; schemathesis checks the answers against them in ``make test``).
+
+The answers are built as dicts (by the Drone Identifier, the drones, the stores); these models
+describe them without changing them: the fields every client reads are typed, and ``extra`` is
+allowed where a part is open by design (a flight-controller object's fields, a step's result,
+the gear files of Listing 4.2), so a drone that says more is not an error of ours.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class _Open(BaseModel):
+    model_config = ConfigDict(extra="allow")
+
+
+class Drone(_Open):
+    """One drone as the Drone Identifier knows it (seed Fig. 4.21, plus liveness)."""
+
+    drone_id: str
+    status: str
+    last_seen: float | None = None
+    seen_ago_s: float | None = None
+    first_seen: float | None = None
+    heartbeat_interval_s: float | None = None
+    position: dict[str, Any] | None = None
+    home: dict[str, Any] | None = None
+    battery: dict[str, Any] | None = None
+    state: str | None = None
+    mode: str | None = None
+    mission_id: str | None = None
+    step_index: int | None = None
+    flight: dict[str, Any] | None = None
+    vehicle_time_s: float | None = None
+    specs: dict[str, Any] | None = None
+    sensors: dict[str, Any] | None = None
+
+
+class Gear(_Open):
+    """A drone's specifications and sensors (seed: getgear; Listing 4.2)."""
+
+    drone_id: str
+    specs: dict[str, Any] | None = None
+    sensors: dict[str, Any] | None = None
+
+
+class CommandAnswer(_Open):
+    """A Drone Controller's answer to a control command (``control/out``)."""
+
+    request_id: str | None = None
+    drone_id: str | None = None
+    command: str | None = None
+    ok: bool
+    error: str | None = None
+    result: dict[str, Any] | None = None
+    timestamp: float | None = None
+    vehicle_time_s: float | None = None
+
+
+class MissionAnswer(_Open):
+    """A Mission Worker's first report on a mission request (``mission/out``)."""
+
+    drone_id: str | None = None
+    mission_id: str | None = None
+    request_id: str | None = None
+    event: str | None = None
+    ok: bool | None = None
+    error: str | None = None
+    step_count: int | None = None
+    result: dict[str, Any] | None = None
+    vehicle_time_s: float | None = None
+
+
+class Telemetry(BaseModel):
+    """One drone's telemetry over a time range: per field, [unix seconds, value] pairs."""
+
+    model_config = ConfigDict(populate_by_name=True)
+
+    drone: str
+    from_: float = Field(alias="from")
+    to: float
+    every_s: float
+    fields: list[str]
+    series: dict[str, list[list[float | None]]]
+
+
+class AuditEntry(BaseModel):
+    id: int
+    ts: float
+    who: str | None = None
+    role: str | None = None
+    drone_id: str | None = None
+    command: str | None = None
+    params: Any = None
+    status: int | None = None
+    answer: Any = None
+
+
+class TokenInfo(BaseModel):
+    name: str
+    role: str
+    created_at: float | None = None
+
+
+class NewTokenAnswer(BaseModel):
+    name: str
+    role: str
+    token: str
+
+
+class Revoked(BaseModel):
+    name: str
+    revoked: bool
+
+
+class WebConfig(BaseModel):
+    tiles: str | None = None
+
+
+class Me(BaseModel):
+    name: str
+    role: str
+    can_command: bool
+
+
+class Health(BaseModel):
+    ok: bool
+    version: str
+
+
+class MissionLog(_Open):
+    """The mission log (format ``dronefleet-mission-log/1``): per drone, every step it flew and
+    the path it flew; the handovers and extensions; the mission's timing."""
+
+    format: str
+    mission_id: str
+    name: str | None = None
+    state: str
+    drones: list[dict[str, Any]]
