@@ -19,6 +19,7 @@ from typing import Any, NamedTuple
 
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
+from dronefleet.ground.planner.estimate_units import fly_pair
 from dronefleet.vehicle.battery import Battery
 from dronefleet.vehicle.kinematics import FlightLimits, Kinematics
 
@@ -398,11 +399,23 @@ def estimate(
         state.target, state.target_h = (here.n, here.e), state.h
     elif not any(s.get("command") == "arm" for s in steps):
         state.armed = True  # armed by someone else: do not charge arming it never asked for
-    per_step, per_step_mah = [], []
-    for step in steps:
+    per_step: list[float] = []
+    per_step_mah: list[float] = []
+    cache: dict[tuple, tuple] = {}  # repeated legs, flown once (estimate_units.py)
+    i = 0
+    while i < len(steps):
+        step = steps[i]
+        wait = steps[i + 1] if i + 1 < len(steps) else None
+        if step.get("command") == "navigate" and wait and wait.get("command") == "wait_for_flight":
+            d1, c1, d2, c2 = fly_pair(state, step, wait, home, cache)
+            per_step += [d1, d2]
+            per_step_mah += [c1 / 3.6, c2 / 3.6]
+            i += 2
+            continue
         before = state.charge_as
         per_step.append(state.run(step, home))
         per_step_mah.append((state.charge_as - before) / 3.6)
+        i += 1
     energy = state.charge_as / 3.6
     used = 100.0 * energy / model.capacity_mah
     return Estimate(
