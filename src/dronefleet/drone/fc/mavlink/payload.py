@@ -47,7 +47,7 @@ class AutopilotCamera:
     reported as taken (issue 17)."""
 
     #: Wall seconds to wait for the picture's record once the trigger is accepted.
-    FEEDBACK_TIMEOUT_S = 3.0
+    FEEDBACK_TIMEOUT_S = 5.0
 
     def __init__(self, fc: MavlinkFlightController, name: str = "camera") -> None:
         self.name = name
@@ -57,6 +57,8 @@ class AutopilotCamera:
     async def capture(self) -> dict[str, Any]:
         fc = self._fc
         index = self._count + 1
+        kinds = ("CAMERA_IMAGE_CAPTURED", "CAMERA_FEEDBACK")
+        seen = {kind: fc.link.latest.get(kind) for kind in kinds}  # records before this trigger
         feedback = asyncio.ensure_future(
             fc.link.wait_for(
                 ("CAMERA_IMAGE_CAPTURED", "CAMERA_FEEDBACK"), None, self.FEEDBACK_TIMEOUT_S
@@ -68,6 +70,11 @@ class AutopilotCamera:
             feedback.cancel()
             raise FcError(f"camera: no picture taken: {exc}") from exc
         record = await feedback
+        if record is None:  # a record that came before the waiter was listening still counts
+            record = next(
+                (m for k in kinds if (m := fc.link.latest.get(k)) is not None and m is not seen[k]),
+                None,
+            )
         if record is None:
             raise FcError(
                 "camera: the autopilot accepted the trigger but reported no picture (no "
