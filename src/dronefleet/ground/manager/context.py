@@ -7,11 +7,12 @@ from typing import Annotated, Any
 from fastapi import Depends, Request
 from starlette.requests import HTTPConnection
 
-from dronefleet.errors import DronefleetError
+from dronefleet.errors import DronefleetError, NoAnswer
 from dronefleet.ground.manager.auth import Principal, Role, TokenBook
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.store import TelemetryStore
+from dronefleet.messaging.rpc import RequestTimeout
 
 
 @dataclass
@@ -50,13 +51,22 @@ async def audited(
     command: str,
     params: dict[str, Any],
     call: Awaitable[Any],
+    *,
+    recorded: Callable[[Any], Any] = lambda answer: answer,
+    silent: str = "no answer",
 ) -> Any:
-    """Await ``call`` and write the outcome, good or bad, to the audit log."""
+    """Await ``call`` and write the outcome, good or bad, to the audit log: the one audit
+    wrapper of every command and planner call. ``recorded`` is what of a good answer is kept;
+    a request nobody answered (``silent`` says who) is a 504."""
     gateway = ctx_of(request).gateway
     try:
         answer = await call
     except DronefleetError as exc:
         await gateway.audit(who, drone_id, command, params, exc.status, exc.body())
         raise
-    await gateway.audit(who, drone_id, command, params, 200, answer)
+    except RequestTimeout as exc:
+        error = NoAnswer(f"{silent}: {exc}")
+        await gateway.audit(who, drone_id, command, params, error.status, error.body())
+        raise error from exc
+    await gateway.audit(who, drone_id, command, params, 200, recorded(answer))
     return answer

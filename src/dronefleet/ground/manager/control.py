@@ -16,7 +16,7 @@ from pydantic import ValidationError
 
 from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import ctx_of
-from dronefleet.ground.manager.drones import MIN_TIMEOUT_S, run_control, run_mission
+from dronefleet.ground.manager.drones import MIN_TIMEOUT_S, gear_of, run_control, run_mission
 from dronefleet.ground.manager.errors import ApiError, answers
 from dronefleet.ground.manager.schemas import CommandAnswer, Drone, Gear, MissionAnswer
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
@@ -112,12 +112,7 @@ async def control(request: Request) -> Any:
         raise ApiError(422, f"droneID: required for {command}")
     timeout_s = _timeout(params)
     if command == "getgear":
-        record = await ctx.gateway.drone(drone_id)
-        return {
-            "drone_id": drone_id,
-            "specs": record.get("specs"),
-            "sensors": record.get("sensors"),
-        }
+        return await gear_of(ctx.gateway, drone_id, timeout_s)
     if command in MISSION:
         mission = params.get("mission")
         try:

@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from dronefleet.ground.manager.auth import Principal
 from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
 from dronefleet.ground.manager.errors import ApiError, answers
+from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.manager.schemas import CommandAnswer, Drone, Gear, MissionAnswer
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command, ControlRequest, parse_control
@@ -73,7 +74,13 @@ async def get_drone(request: Request, who: Viewer, drone_id: DroneId) -> dict[st
 async def get_gear(
     request: Request, who: Viewer, drone_id: DroneId, timeout_s: Timeout = None
 ) -> dict[str, Any]:
-    gateway = ctx_of(request).gateway
+    return await gear_of(ctx_of(request).gateway, drone_id, timeout_s)
+
+
+async def gear_of(gateway: DroneGateway, drone_id: str, timeout_s: float | None) -> dict[str, Any]:
+    """A drone's specs and sensors: the Identifier's copy, or the Gear Manager's answer when
+    the Identifier has not heard them yet. The one gear path, for this route and the seed's
+    ``getgear`` on ``/control`` (which answered ``null`` where this one asked the drone)."""
     record = await gateway.drone(drone_id)
     gear = {"drone_id": drone_id, "specs": record.get("specs"), "sensors": record.get("sensors")}
     for query in (GearQuery.SPECS, GearQuery.SENSORS):

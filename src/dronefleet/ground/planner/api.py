@@ -12,8 +12,8 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
-from dronefleet.errors import DronefleetError, NoAnswer, Unavailable
-from dronefleet.ground.manager.context import Operator, Viewer, ctx_of
+from dronefleet.errors import Unavailable
+from dronefleet.ground.manager.context import Operator, Viewer, audited
 from dronefleet.ground.manager.errors import answers
 from dronefleet.ground.manager.schemas import MissionLog
 from dronefleet.ground.planner import launch
@@ -21,7 +21,6 @@ from dronefleet.ground.planner.launch import MissionSpec
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.schemas import MissionDetail, MissionSummary, Preview
 from dronefleet.ground.planner.service import MissionPlanner
-from dronefleet.messaging.rpc import RequestTimeout
 
 # Every route needs a token (401/403) and the planner (503); each adds what else it can answer.
 router = APIRouter(prefix="/api/v1", tags=["missions"], responses=answers(401, 403, 422, 503))
@@ -47,20 +46,13 @@ def planner_of(request: Request) -> MissionPlanner:
 async def _guard(
     request: Request, who: Any, command: str, params: dict[str, Any], call: Any
 ) -> Any:
-    """Run a planner call and write its outcome to the audit log; refusals go on up to the
-    app's one error handler, which answers each with the status its class carries."""
-    gateway = ctx_of(request).gateway
-    try:
-        answer = await call
-    except DronefleetError as exc:
-        await gateway.audit(who, None, command, params, exc.status, exc.body())
-        raise
-    except RequestTimeout as exc:
-        error = NoAnswer(f"the Drone Identifier did not answer: {exc}")
-        await gateway.audit(who, None, command, params, error.status, error.body())
-        raise error from exc
-    await gateway.audit(who, None, command, params, 200, {"ok": True})
-    return answer
+    """A planner call through the one audit wrapper (ground/manager/context.py); refusals go
+    on up to the app's one error handler, which answers each with the status its class
+    carries. The audit keeps {"ok": true}, not the plan."""
+    return await audited(
+        request, who, None, command, params, call,
+        recorded=lambda _answer: {"ok": True}, silent="the Drone Identifier did not answer",
+    )  # fmt: skip
 
 
 @router.get("/missions", summary="All missions, newest first")
