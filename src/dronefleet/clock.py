@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import time
+from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
 
@@ -66,8 +67,12 @@ class WallClock:
 
 
 async def wait_until(
-    clock: Clock, predicate, *, poll_s: float = 0.1, timeout_s: float | None = None
-):
+    clock: Clock,
+    predicate: Callable[[], object],
+    *,
+    poll_s: float = 0.1,
+    timeout_s: float | None = None,
+) -> bool:
     """Poll ``predicate`` on ``clock`` until it is true; return False on timeout (clock seconds)."""
     deadline = None if timeout_s is None else clock.now() + timeout_s
     while not predicate():

@@ -27,11 +27,12 @@ from pydantic import ValidationError
 from dronefleet.clock import Clock
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
-from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import AlarmLevel
 from dronefleet.messaging.common import Position
-from dronefleet.messaging.missions import ProgressEvent
-from dronefleet.messaging.status import Alarm
+from dronefleet.messaging.inbound import parse_message, speaks_for_itself
+from dronefleet.messaging.missions import MissionProgress, ProgressEvent
+from dronefleet.messaging.status import Alarm, Telemetry
 from dronefleet.messaging.topics import Channel, Direction
 
 log = logging.getLogger(__name__)
@@ -146,38 +147,29 @@ class FailSafe:
         self._running = False
 
     # -- inputs ------------------------------------------------------------------------------
-    async def _on_mission(self, _topic: str, payload: bytes) -> None:
+    async def _on_mission(self, topic_name: str, payload: bytes) -> None:
         try:
-            data = decode_object(payload)
+            progress = parse_message(MissionProgress, payload)
+            speaks_for_itself(topic_name, progress.drone_id)
         except MessageError:
-            return
-        if data.get("kind", "progress") != "progress" or not isinstance(
-            data.get("mission_id"), str
-        ):
-            return
-        event = data.get("event")
-        if event == ProgressEvent.REJECTED:
+            return  # not a progress report of this drone's (the ground's requests share no topic)
+        if progress.event is ProgressEvent.REJECTED:
             return  # nothing changed on board
-        if event in _MISSION_OVER:
+        if progress.event in _MISSION_OVER:
             self.mission_id, self.step_index = None, None
             return
-        step = data.get("step_index")
-        self.mission_id = data["mission_id"]
-        self.step_index = step if isinstance(step, int) and not isinstance(step, bool) else None
+        self.mission_id, self.step_index = progress.mission_id, progress.step_index
 
-    async def _on_telemetry(self, _topic: str, payload: bytes) -> None:
+    async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
         if not self._running:
             return
         try:
-            data = decode_object(payload)
+            telemetry = parse_message(Telemetry, payload)
+            speaks_for_itself(topic_name, telemetry.drone_id)
         except MessageError as exc:
             log.debug("fail-safe: dropping telemetry: %s", exc)
             return
-        fields = data.get("fields")
-        if not isinstance(fields, dict):
-            return
-        vehicle_time_s = _number(data.get("vehicle_time_s"))
-        self.observe(fields, self.clock.now() if vehicle_time_s is None else vehicle_time_s)
+        self.observe(telemetry.fields, telemetry.vehicle_time_s)
         await self._flush()
 
     def observe(self, fields: dict[str, Any], vehicle_time_s: float) -> None:

@@ -203,7 +203,7 @@ async def fly(
 
 
 async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, outbox) -> None:
-    from dronefleet.protocols.mavlink import items as mi
+    from dronefleet.protocols.mavlink.codec import dialect
 
     clock = worker.clock
     started = clock.now()
@@ -246,7 +246,7 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
     level = -1
     # ArduPilot reports no MISSION_ITEM_REACHED for a final NAV_LAND: it lands, disarms, and the
     # mission goes back to item 1. Landed and disarmed once that item was current is its end.
-    lands = [i for i, item in enumerate(onboard.items) if item.command == mi.mav.MAV_CMD_NAV_LAND]
+    lands = [i for i, item in enumerate(onboard.items) if item.command == dialect.MAV_CMD_NAV_LAND]
     land_level = 2 * lands[-1] if lands else None
     events: asyncio.Queue[Any] = asyncio.Queue()
     fc.mission.current_seq = None  # what was current before the upload says nothing now

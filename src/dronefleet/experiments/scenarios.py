@@ -22,8 +22,9 @@ from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec
 from dronefleet.ground.planner.coverage.spec import Action, Grid
-from dronefleet.ground.planner.launch import MissionOptions, MissionSpec, Strategy
+from dronefleet.ground.planner.launch import MissionSpec
 from dronefleet.ground.planner.models import Leg, MissionRecord
+from dronefleet.ground.planner.options import MissionOptions, Strategy
 from dronefleet.ground.planner.units import units
 
 
@@ -38,8 +39,8 @@ def rectangle(
     ]
 
 
-def _leg(record: MissionRecord, leg_id: str) -> Leg:
-    leg = record.leg(leg_id)
+def _leg(record: MissionRecord, leg_id: str | None) -> Leg:
+    leg = record.leg(leg_id) if leg_id else None
     if leg is None:
         raise ExperimentFailed(f"mission {record.mission_id} has no leg {leg_id}")
     return leg
@@ -175,16 +176,16 @@ async def replacement(h: Harness, strategy: Strategy) -> Result:
     record = await launch.create(h.planner, spec, start=True)
     record = await h.until_ended(record.mission_id)
     handover = record.handovers[0]
-    second = _leg(record, handover["to_leg"])
+    second = _leg(record, handover.to_leg)
     t0 = record.legs[0].started_vehicle_s or 0.0
     wait_step = max(i for i, st in enumerate(second.prefix) if st["command"] == "wait_for_flight")
     arrive = next((r.vehicle_time_s or 0.0) for r in second.reports if r.drone_step == wait_step)
-    if handover["kind"] == "early":
-        leaving = _leg(record, handover["leaving_leg"])
+    if handover.kind == "early":
+        leaving = _leg(record, handover.leaving_leg)
         t_leave = max((r.vehicle_time_s or 0.0) for r in leaving.reports if r.index is not None)
-        t_launch = handover["launch_vehicle_s"]
+        t_launch = handover.launch_vehicle_s or 0.0
     else:
-        t_leave = t_launch = handover["alarm_vehicle_s"]
+        t_leave = t_launch = handover.alarm_vehicle_s or 0.0
     waypoints: dict[str, int] = {}
     for leg in record.legs:
         n = sum(
@@ -198,7 +199,7 @@ async def replacement(h: Harness, strategy: Strategy) -> Result:
         "second drone: preparation and transit": arrive - t_launch,
         "second drone: remaining waypoints": (second.ended_vehicle_s or arrive) - arrive,
     }
-    alarms = [a for a in record.alarms if a["level"] == "CRITICAL"]
+    alarms = [a for a in record.alarms if a.level == "CRITICAL"]
     planned, done = reached(record)
     return Result(
         "replacement",
@@ -210,9 +211,9 @@ async def replacement(h: Harness, strategy: Strategy) -> Result:
         gap_s=max(0.0, arrive - t_leave),
         mission_id=record.mission_id,
         notes={
-            "handover": handover["kind"],
+            "handover": handover.kind,
             "waypoints per drone": waypoints,
-            "resumed at step": handover.get("resume_index"),
+            "resumed at step": handover.resume_index,
             "first drone battery at start %": round(battery, 1),
             "CRITICAL alarms": len(alarms),
             "launched before the first drone left (s)": round(t_leave - t_launch, 1),
@@ -251,7 +252,7 @@ async def collab(h: Harness, strategy: Strategy) -> Result:
             f"the OUT_MEASURE alarm did not grow the area (mission {record.state.value})"
         )
     expansion = record.expansions[0]
-    t_alarm = expansion["alarm_vehicle_s"]
+    t_alarm = expansion.alarm_vehicle_s or 0.0
     first = record.legs[0]
     t0 = first.started_vehicle_s or 0.0
     end = max((r.vehicle_time_s or 0) for _, r in reports(record))
@@ -271,9 +272,9 @@ async def collab(h: Harness, strategy: Strategy) -> Result:
         done,
         mission_id=record.mission_id,
         notes={
-            "area_m2 after expansion": expansion.get("area_m2"),
-            "waypoints after expansion": expansion.get("waypoints"),
-            "split": expansion.get("assignments"),
+            "area_m2 after expansion": expansion.area_m2,
+            "waypoints after expansion": expansion.waypoints,
+            "split": expansion.assignments,
         },
     )
 

@@ -17,13 +17,13 @@ _INVERSE_MASK = Geodesic.DISTANCE | Geodesic.AZIMUTH
 
 def distance_m(a: LLA, b: LLA) -> float:
     """Horizontal geodesic distance from ``a`` to ``b`` in metres (altitudes ignored)."""
-    return _GEODESIC.Inverse(a.lat, a.lon, b.lat, b.lon, Geodesic.DISTANCE)["s12"]
+    return float(_GEODESIC.Inverse(a.lat, a.lon, b.lat, b.lon, Geodesic.DISTANCE)["s12"])
 
 
 def bearing_deg(a: LLA, b: LLA) -> float:
     """Initial geodesic bearing from ``a`` to ``b``, degrees clockwise from north in [0, 360)."""
     azimuth = _GEODESIC.Inverse(a.lat, a.lon, b.lat, b.lon, _INVERSE_MASK)["azi1"]
-    return azimuth % 360.0
+    return float(azimuth) % 360.0
 
 
 def offset(a: LLA, north_m: float, east_m: float, up_m: float = 0.0) -> LLA:

@@ -25,6 +25,7 @@ from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
 from dronefleet.messaging.common import Message, validate
 from dronefleet.messaging.gear import GearQuery, GearRequest
+from dronefleet.messaging.ground_events import FleetChange, FleetEvent
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
 from dronefleet.messaging.topics import (
@@ -119,16 +120,16 @@ class DroneIdentifier:
         if record is None:
             record = self.fleet[hb.drone_id] = DroneRecord.first(hb, now)
             log.info("drone %s joined the fleet", hb.drone_id)
-            await self._announce(record, "new")
+            await self._announce(record, FleetChange.NEW)
         else:
             before = record.status
             came_back = record.observe(hb, now)
             if record.status is DroneStatus.AUTOPILOT_LINK_LOST and before is not record.status:
                 log.warning("drone %s: its autopilot link is lost", hb.drone_id)
-                await self._announce(record, "autopilot_link_lost")
+                await self._announce(record, FleetChange.AUTOPILOT_LINK_LOST)
             elif came_back or before is DroneStatus.AUTOPILOT_LINK_LOST:
                 log.info("drone %s is online again", hb.drone_id)
-                await self._announce(record, "online")
+                await self._announce(record, FleetChange.ONLINE)
         self._dirty.add(hb.drone_id)
         if record.specs is None or record.sensors is None:
             self._maybe_ask_gear(hb.drone_id, now)
@@ -147,13 +148,13 @@ class DroneIdentifier:
                         record.drone_id,
                         now - record.last_seen,
                     )
-                    await self._announce(record, "lost")
+                    await self._announce(record, FleetChange.LOST)
                     await self._flush([record.drone_id])
 
-    async def _announce(self, record: DroneRecord, event: str) -> None:
-        message = {"event": event, "drone_id": record.drone_id, "drone": record.public()}
+    async def _announce(self, record: DroneRecord, event: FleetChange) -> None:
+        message = FleetEvent(event=event, drone_id=record.drone_id, drone=record.public())
         await self.client.publish(EVENTS_TOPIC, message, disposable=True)
-        if event != "new":
+        if event is not FleetChange.NEW:
             await self._flush([record.drone_id])
 
     # -- gear ----------------------------------------------------------------------------------

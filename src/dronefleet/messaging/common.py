@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import secrets
+from enum import StrEnum
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
@@ -50,7 +51,7 @@ def reason(exc: ValidationError) -> str:
     return "; ".join(parts)
 
 
-def _tags():
+def _tags() -> type[StrEnum]:
     from dronefleet.messaging.commands import Command
 
     return Command

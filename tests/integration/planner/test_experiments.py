@@ -62,10 +62,10 @@ async def test_replacement_resumes_at_the_first_unflown_waypoint(strategy):
         for g in units(record.work)
         if g not in flown and record.work[g[0]]["command"] == "navigate"
     ]
-    assert handover["resume_index"] == unflown[0][0]
+    assert handover.resume_index == unflown[0][0]
     assert {record.done[i] for i in seen} == {"QUAD_A", "QUAD_B"}
     if strategy == "ours":
-        assert handover["kind"] == "early" and result.gap_s is not None and result.gap_s < 5.0
+        assert handover.kind == "early" and result.gap_s is not None and result.gap_s < 5.0
 
 
 async def test_collaboration_grows_the_area_by_the_seed_rule_and_covers_it():
@@ -73,8 +73,8 @@ async def test_collaboration_grows_the_area_by_the_seed_rule_and_covers_it():
         result = await scenarios.collab(h, "ours")
         record = h.planner.missions[result.mission_id]
     expansion = record.expansions[0]
-    assert len(expansion["joined"]) == 2
-    assert expansion["area_factor"] == pytest.approx(1.0 + 0.5 * 2)
-    assert expansion["area_m2"] == pytest.approx(28 * 35 * 2.0, rel=0.01)
+    assert len(expansion.joined) == 2
+    assert expansion.area_factor == pytest.approx(1.0 + 0.5 * 2)
+    assert expansion.area_m2 == pytest.approx(28 * 35 * 2.0, rel=0.01)
     assert result.waypoints_reached == result.waypoints_planned
-    assert set(expansion["assignments"]) == {"QUAD_A", "QUAD_B", "QUAD_C"}
+    assert set(expansion.assignments) == {"QUAD_A", "QUAD_B", "QUAD_C"}

@@ -19,16 +19,29 @@ from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import ctx_of
 from dronefleet.ground.manager.errors import ApiError
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
-from dronefleet.messaging.codec import MessageError, decode_object
-from dronefleet.messaging.topics import PLANNER_EVENTS, Channel, any_drone
+from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.ground_events import FleetEvent, PlannerEvent
+from dronefleet.messaging.inbound import parse_message, speaks_for_itself
+from dronefleet.messaging.log_throttle import LogThrottle
+from dronefleet.messaging.missions import MissionProgress
+from dronefleet.messaging.status import Alarm, Heartbeat, Telemetry
+from dronefleet.messaging.topics import PLANNER_EVENTS, Channel, any_drone, parse
 
 log = logging.getLogger(__name__)
+_throttle = LogThrottle(log)
 
 KINDS = {
     Channel.HEARTBEATS: "heartbeat",
     Channel.TELEMETRY: "telemetry",
     Channel.MISSION: "progress",
     Channel.ALARMS: "alarm",
+}
+#: The shared model each relayed drone message is validated with (the stream relays no raw dict).
+MODELS: dict[Channel, type[Heartbeat | Telemetry | MissionProgress | Alarm]] = {
+    Channel.HEARTBEATS: Heartbeat,
+    Channel.TELEMETRY: Telemetry,
+    Channel.MISSION: MissionProgress,
+    Channel.ALARMS: Alarm,
 }
 ALL_KINDS = frozenset({*KINDS.values(), "fleet", "mission"})
 #: The Mission Planner announces mission changes (state, handovers, extensions) here.
@@ -57,6 +70,7 @@ class StreamHub:
     def __init__(self, broker_url: Any, *, client_id: str) -> None:
         self.client = BrokerClient(broker_url, client_id)
         self.listeners: set[_Listener] = set()
+        self.dropped = 0  # messages that did not validate: counted, not relayed
 
     async def start(self) -> "StreamHub":
         for channel in KINDS:
@@ -74,19 +88,29 @@ class StreamHub:
         if not self.listeners:
             return
         try:
-            data = decode_object(payload)
-        except MessageError:
+            kind, drone_id, data = _read(topic_name, payload)
+        except (MessageError, ValueError) as exc:
+            self.dropped += 1
+            _throttle.log(logging.WARNING, "stream", "not relaying %s: %s", topic_name, exc)
             return
-        parts = topic_name.split("/")
-        if topic_name == EVENTS_TOPIC:
-            kind, drone_id = "fleet", data.get("drone_id")
-        elif topic_name == PLANNER_EVENTS_TOPIC:
-            kind, drone_id = "mission", data.get("drone_id")
-        else:
-            kind, drone_id = KINDS.get(Channel(parts[1]), "other"), parts[0]
         message = {"kind": kind, "drone_id": drone_id, "topic": topic_name, "data": data}
         for listener in list(self.listeners):
             listener.offer(message)
+
+
+def _read(topic_name: str, payload: bytes) -> tuple[str, str | None, dict[str, Any]]:
+    """A broker message as the stream relays it: its kind, drone and validated fields."""
+    if topic_name == EVENTS_TOPIC:
+        fleet = parse_message(FleetEvent, payload)
+        return "fleet", fleet.drone_id, fleet.model_dump(mode="json", exclude_none=True)
+    if topic_name == PLANNER_EVENTS_TOPIC:
+        mission = parse_message(PlannerEvent, payload)
+        data = mission.model_dump(mode="json", exclude_none=True)
+        return "mission", data.get("drone_id"), data
+    where = parse(topic_name)
+    msg = parse_message(MODELS[where.channel], payload)
+    speaks_for_itself(topic_name, msg.drone_id)
+    return KINDS[where.channel], where.drone_id, msg.model_dump(mode="json", exclude_none=True)
 
 
 router = APIRouter(tags=["stream"])

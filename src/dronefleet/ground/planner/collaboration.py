@@ -18,35 +18,35 @@ from dronefleet.ground.planner import allocation
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area, rebuild, seed_grid_rebuild
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import preparation
-from dronefleet.ground.planner.models import Leg, LegState, MissionRecord
+from dronefleet.ground.planner.models import Expansion, LatLon, Leg, LegState, MissionRecord
 from dronefleet.ground.planner.ops import PlannerOps
+from dronefleet.ground.planner.options import LegRole
 from dronefleet.ground.planner.units import units
+from dronefleet.messaging.status import Alarm
 
 log = logging.getLogger(__name__)
 
 
-async def extend(
-    planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: dict[str, Any]
-) -> None:
+async def extend(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: Alarm) -> None:
     async with planner.lock:
-        limit = int(record.options.get("max_expansions", 1))
+        limit = record.options.max_expansions
         if record.area is None or len(record.expansions) >= limit or not leg.active:
             return
-        pos = alarm["position"]
-        centre = LLA(pos["lat"], pos["lon"], pos.get("alt_m", 0.0))
-        expansion: dict[str, Any] = {
-            "drone_id": leg.drone_id,
-            "alarm_vehicle_s": alarm.get("vehicle_time_s"),
-            "centre": {"lat": centre.lat, "lon": centre.lon},
-        }
+        pos = alarm.position
+        centre = LLA(pos.lat, pos.lon, pos.alt_m)
+        expansion = Expansion(
+            drone_id=leg.drone_id,
+            alarm_vehicle_s=alarm.vehicle_time_s,
+            centre=LatLon(lat=centre.lat, lon=centre.lon),
+        )
         record.expansions.append(expansion)  # claimed before any await: one extension per alarm
         try:
             fleet = await planner.fleet.drones()
         except Exception as exc:
-            expansion["error"] = f"the Drone Identifier did not answer: {exc}"
+            expansion.error = f"the Drone Identifier did not answer: {exc}"
             await planner.save(record)
             return
-        wanted = int(record.options.get("collaborators", 2))
+        wanted = record.options.collaborators
         joiners = candidates(
             fleet,
             centre,
@@ -56,10 +56,10 @@ async def extend(
         me = next((d for d in fleet if d.drone_id == leg.drone_id), None)
         team: list[DroneView] = ([me] if me else []) + joiners
         if not team:
-            expansion["error"] = "no drone available to extend the area"
+            expansion.error = "no drone available to extend the area"
             await planner.save(record)
             return
-        strategy = record.options.get("strategy", "ours")
+        strategy = record.options.strategy
         factor = 1.0 + 0.5 * len(joiners)
         slots = [
             allocation.DroneSlot(
@@ -79,14 +79,12 @@ async def extend(
         record.work.extend(new_work)
         new_indices = list(range(offset, offset + len(new_work)))
         record.required = [i for i in record.required_indices() if i in record.done] + new_indices
-        record.area = new_spec.model_dump(mode="json")
+        record.area = new_spec
         groups = [[i + offset for i in g] for g in units(new_work)]
-        expansion.update(
-            area_factor=factor,
-            joined=[d.drone_id for d in joiners],
-            **covered,
-            assignments={a.drone_id: len(a.waypoint_indices) for a in assignments},
-        )
+        expansion.area_factor = factor
+        expansion.joined = [d.drone_id for d in joiners]
+        expansion.waypoints, expansion.area_m2 = covered["waypoints"], covered["area_m2"]
+        expansion.assignments = {a.drone_id: len(a.waypoint_indices) for a in assignments}
         altitude = new_spec.altitude_m
         members = {a.drone_id for a in assignments if a.waypoint_indices}
         for old in record.active_legs():
@@ -110,18 +108,20 @@ async def extend(
                 Leg(
                     leg_id=planner.next_leg_id(record),
                     drone_id=drone.drone_id,
-                    role="primary" if drone.drone_id == leg.drone_id else "collaborator",
+                    role=LegRole.PRIMARY
+                    if drone.drone_id == leg.drone_id
+                    else LegRole.COLLABORATOR,
                     prefix=prefix,
                     indices=indices,
                 ),
             )
         await planner.save(record)
-    planner.emit("expansion", mission_id=record.mission_id, **expansion)
+    planner.emit("expansion", mission_id=record.mission_id, **expansion.model_dump(mode="json"))
     log.info("mission %s extended: %s", record.mission_id, expansion)
 
 
 def grown(
-    area: dict[str, Any],
+    area: AreaSpec,
     centre: LLA,
     factor: float,
     strategy: str,
@@ -129,7 +129,7 @@ def grown(
 ) -> tuple[AreaSpec, list[dict[str, Any]], list[Any], dict[str, Any]]:
     """The area grown ``factor`` times around ``centre``, its steps, their split among ``slots``
     and its figures (runs in the planning worker: ground/planner/worker.py)."""
-    spec = AreaSpec.model_validate(area)
+    spec = area
     if strategy == "seed":
         new_spec = seed_grid_rebuild(spec, centre, factor)
     else:  # exactly the area the rule asks for, lines inset half a spacing from the edges

@@ -18,10 +18,20 @@ from dronefleet.geo.types import LLA
 from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.legs import mission_altitude, preparation
-from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.models import (
+    Handover,
+    HandoverKind,
+    LatLon,
+    Leg,
+    LegState,
+    MissionRecord,
+    MissionState,
+)
 from dronefleet.ground.planner.ops import PlannerOps
+from dronefleet.ground.planner.options import LegRole
 from dronefleet.ground.planner.replacement import camera_state, pick
 from dronefleet.ground.planner.units import remaining, units
+from dronefleet.messaging.commands import Command
 
 log = logging.getLogger(__name__)
 
@@ -38,11 +48,11 @@ async def check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
 
 def _watched(record: MissionRecord, leg: Leg) -> bool:
     """Whether ``leg`` is one early replacement looks after (active, working, not handed over)."""
-    if not record.options.get("early_replacement", True) or record.terminal:
+    if not record.options.early_replacement or record.terminal:
         return False
-    if leg.role in ("recovery", "leaving") or not leg.active:
+    if leg.role.outgoing or not leg.active:
         return False
-    return not any(h["from_leg"] == leg.leg_id for h in record.handovers)
+    return not record.handed_over(leg)
 
 
 def _units_within(groups: list[list[int]], fits: Callable[[list[int]], bool]) -> int:
@@ -81,7 +91,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         planner.reserve_pct,
         fleet,
         planner.busy_drones() | {leg.drone_id},
-        record.options.get("strategy", "ours"),
+        record.options.strategy,
     )
     if decision is None:
         return
@@ -100,52 +110,50 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         leaving = Leg(
             leg_id=planner.next_leg_id(record),
             drone_id=leg.drone_id,
-            role="leaving",
+            role=LegRole.LEAVING,
             indices=kept,
-            suffix=[{"command": "land"}, {"command": "wait_for_flight"}],
+            suffix=[{"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value}],
         )
         await planner.send_leg(record, leaving)
         trigger = camera_state(record, leg)
         if trigger:
-            prefix.append({"command": "camera_trigger", "value": trigger})
+            prefix.append({"command": Command.CAMERA_TRIGGER.value, "value": trigger})
         new_leg = Leg(
             leg_id=planner.next_leg_id(record),
             drone_id=chosen.drone_id,
-            role="replacement",
+            role=LegRole.REPLACEMENT,
             prefix=prefix,
             indices=rest,
         )
-        handover = {
-            "kind": "early",
-            "from_drone": leg.drone_id,
-            "from_leg": leg.leg_id,
-            "leaving_leg": leaving.leg_id,
-            "to_drone": chosen.drone_id,
-            "to_leg": new_leg.leg_id,
-            "reason": f"battery {battery:.1f}% cannot finish {len(groups)} waypoint units; "
+        handover = Handover(
+            kind=HandoverKind.EARLY,
+            from_drone=leg.drone_id,
+            from_leg=leg.leg_id,
+            leaving_leg=leaving.leg_id,
+            to_drone=chosen.drone_id if rest else None,
+            to_leg=new_leg.leg_id if rest else None,
+            reason=f"battery {battery:.1f}% cannot finish {len(groups)} waypoint units; "
             f"leaves after {keep}",
-            "launch_vehicle_s": latest.get("vehicle_time_s"),
-            "predicted_old_s": round(t_old, 1),
-            "predicted_new_s": round(t_new, 1),
-            "resume_position": {"lat": leave_at[0], "lon": leave_at[1]},
-            "resume_index": rest[0] if rest else None,
-            "remaining_steps": len(rest),
-        }
+            launch_vehicle_s=latest.get("vehicle_time_s"),
+            predicted_old_s=round(t_old, 1),
+            predicted_new_s=round(t_new, 1),
+            resume_position=LatLon(lat=leave_at[0], lon=leave_at[1]),
+            resume_index=rest[0] if rest else None,
+            remaining_steps=len(rest),
+        )
         record.handovers.append(handover)
         record.state = MissionState.HANDED_OVER
         if rest:
             await planner.send_leg(record, new_leg)
-        else:
-            handover["to_drone"] = None
         await planner.save(record)
-    planner.emit("handover", mission_id=record.mission_id, **handover)
+    planner.emit("handover", mission_id=record.mission_id, **handover.model_dump(mode="json"))
     log.info(
         "mission %s: early handover %s -> %s", record.mission_id, leg.drone_id, chosen.drone_id
     )
 
 
 @dataclass(frozen=True)
-class Handover:
+class Decision:
     """An early handover worked out by :func:`decide`."""
 
     chosen: DroneView  # the drone taking over
@@ -169,7 +177,7 @@ def decide(
     fleet: list[DroneView],
     busy: set[str],
     strategy: str,
-) -> Handover | str | None:
+) -> Decision | str | None:
     """Whether to hand the rest of ``left`` over now: None (not yet, or no need), a reason why
     nobody can, or the handover. Runs in the planning worker (ground/planner/worker.py)."""
 
@@ -184,7 +192,9 @@ def decide(
     kept = [i for g in groups[:keep] for i in g]
     rest = [i for g in groups[keep:] for i in g]
     t_old = cost(kept).duration_s if kept else 0.0
-    leave = next((work[i] for i in reversed(kept) if work[i].get("command") == "navigate"), None)
+    leave = next(
+        (work[i] for i in reversed(kept) if work[i].get("command") == Command.NAVIGATE), None
+    )
     leave_at = (leave["lat"], leave["lon"]) if leave else (here.lat, here.lon)
     altitude = mission_altitude(work)
     chosen, prefix = pick(
@@ -203,4 +213,4 @@ def decide(
     ).duration_s
     if t_old > t_new + LAUNCH_MARGIN_S:
         return None  # not yet: checked again after the next step
-    return Handover(chosen, prefix, kept, rest, groups, keep, t_old, t_new, leave_at)
+    return Decision(chosen, prefix, kept, rest, groups, keep, t_old, t_new, leave_at)

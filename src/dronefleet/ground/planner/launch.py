@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import secrets
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
@@ -22,34 +22,18 @@ from dronefleet.ground.planner.estimate import VehicleModel, can_finish, estimat
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
+from dronefleet.ground.planner.options import MissionOptions, RecordOptions, Strategy
 from dronefleet.ground.planner.service import MissionPlanner, PlannerError
 from dronefleet.ground.planner.units import units
 from dronefleet.messaging.codec import MessageError
-from dronefleet.messaging.commands import parse_step
+from dronefleet.messaging.commands import Command, parse_step
 from dronefleet.messaging.common import reason
-
-#: How a drone gets to its work: climbing while flying (ours) or the dissertation's way (seed).
-Strategy = Literal["ours", "seed"]
 
 if TYPE_CHECKING:
     # Code may give any AreaSpec; MissionSpec re-checks it against the request bounds.
     AreaField = AreaSpec | None
 else:
     AreaField = AreaRequest | None  # what a request is validated (and documented) as
-
-
-class MissionOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    replacement: bool = True  # replace a drone that raises CRITICAL
-    early_replacement: bool = True  # launch the replacement before the battery runs out
-    collaboration: bool = True  # grow the area on OUT_MEASURE
-    collaborators: int = Field(default=2, ge=0, le=10)
-    max_expansions: int = Field(default=1, ge=0, le=10)
-    strategy: Strategy = "ours"
-    # Fly each leg on board its autopilot (MAVLink AUTO) when its steps allow it (true), from
-    # the companion computer (false), or as each drone is configured (null).
-    onboard: bool | None = None
 
 
 class MissionSpec(BaseModel):
@@ -108,8 +92,8 @@ def work_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
 
 def check_altitudes(work: list[dict[str, Any]], limit_m: float) -> None:
     for i, step in enumerate(work):
-        height = step.get("altitude_delta") if step.get("command") == "navigate" else None
-        if step.get("command") == "takeoff":
+        height = step.get("altitude_delta") if step.get("command") == Command.NAVIGATE else None
+        if step.get("command") == Command.TAKEOFF:
             height = step.get("value")
         if height is not None and height > limit_m:
             raise PlannerError(
@@ -119,7 +103,7 @@ def check_altitudes(work: list[dict[str, Any]], limit_m: float) -> None:
 
 def self_prepared(work: list[dict[str, Any]]) -> bool:
     """A step list that arms and takes off by itself needs no preparation prefix."""
-    return any(s.get("command") in ("arm", "takeoff") for s in work)
+    return any(s.get("command") in (Command.ARM, Command.TAKEOFF) for s in work)
 
 
 @dataclass(frozen=True)
@@ -174,7 +158,7 @@ def _chosen(spec: MissionSpec, work: list[dict[str, Any]], fleet: dict[str, Dron
             raise Conflict(f"drone {drone_id} is busy with mission {drone.mission_id}")
         chosen.append(drone)
     if not chosen:
-        first = next((s for s in work if s.get("command") == "navigate"), None)
+        first = next((s for s in work if s.get("command") == Command.NAVIGATE), None)
         near = LLA(first["lat"], first["lon"]) if first else None
         if near is None and fleet:
             near = next(iter(fleet.values())).position
@@ -284,9 +268,9 @@ async def create(
         mission_id=spec.mission_id or f"M{secrets.token_hex(4)}",
         name=spec.name,
         drones=[drone_id for drone_id, *_ in done.shares],
-        area=spec.area.model_dump(mode="json") if spec.area else None,
+        area=AreaSpec.model_validate(spec.area.model_dump()) if spec.area else None,
         work=done.work,
-        options={**spec.options.model_dump(mode="json"), "custom_steps": spec.steps is not None},
+        options=RecordOptions(**spec.options.model_dump(), custom_steps=spec.steps is not None),
     )
     await planner.add(record)
     if start:
@@ -310,13 +294,12 @@ async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
     record = planner.get(mission_id)
     if record.state is not MissionState.PLANNED:
         raise Conflict(f"mission {mission_id} is {record.state.value}, not planned")
-    options = {k: v for k, v in record.options.items() if k != "custom_steps"}  # record-only
     try:
         spec = MissionSpec(
             drones=record.drones,
-            steps=record.work if record.options.get("custom_steps", True) else None,
-            area=AreaSpec.model_validate(record.area) if record.area else None,
-            options=MissionOptions.model_validate(options),
+            steps=record.work if record.options.custom_steps else None,
+            area=record.area,
+            options=record.options.request(),
         )
     except ValidationError as exc:  # stored before the request bounds were tightened
         raise PlannerError(f"mission {mission_id} can no longer be planned: {reason(exc)}") from exc
@@ -346,8 +329,13 @@ async def call_drone(
         name=f"call to {lat:.6f},{lon:.6f}",
         drones=[pool[0].drone_id],
         steps=[
-            {"command": "navigate", "lat": lat, "lon": lon, "altitude_delta": altitude_m},
-            {"command": "wait_for_flight"},
+            {
+                "command": Command.NAVIGATE.value,
+                "lat": lat,
+                "lon": lon,
+                "altitude_delta": altitude_m,
+            },
+            {"command": Command.WAIT_FOR_FLIGHT.value},
         ],
         options=MissionOptions(strategy=strategy, collaboration=False),
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from dronefleet.ground.planner.fleet_view import DroneView
+from dronefleet.messaging.commands import Command
 
 
 def preparation(
@@ -46,8 +47,8 @@ def preparation(
 def mission_altitude(work: list[dict[str, Any]], default: float = 10.0) -> float:
     """The height the work is flown at: the first navigate's, or ``default``."""
     for step in work:
-        if step.get("command") == "navigate" and step.get("altitude_delta") is not None:
+        if step.get("command") == Command.NAVIGATE and step.get("altitude_delta") is not None:
             return float(step["altitude_delta"])
-        if step.get("command") == "takeoff" and step.get("value") is not None:
+        if step.get("command") == Command.TAKEOFF and step.get("value") is not None:
             return float(step["value"])
     return default

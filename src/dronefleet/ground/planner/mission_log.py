@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from dronefleet.ground.planner.models import MissionRecord
+from dronefleet.messaging.commands import Command
 
 LOG_FORMAT = "dronefleet-mission-log/1"
 
@@ -23,7 +24,7 @@ def build_log(record: MissionRecord) -> dict[str, Any]:
         entry["legs"].append(
             {
                 "leg_id": leg.leg_id,
-                "role": leg.role,
+                "role": leg.role.value,
                 "state": leg.state.value,
                 "indices": leg.indices,
                 "prefix": [s.get("command") for s in leg.prefix],
@@ -49,7 +50,9 @@ def build_log(record: MissionRecord) -> dict[str, Any]:
             drone_id, {"drone_id": drone_id, "legs": [], "steps": [], "path": []}
         )
         entry["path"] = [{"t": p[0], "lat": p[1], "lon": p[2], "alt": p[3]} for p in points]
-    waypoint_steps = [i for i, s in enumerate(record.work) if s.get("command") == "wait_for_flight"]
+    waypoint_steps = [
+        i for i, s in enumerate(record.work) if s.get("command") == Command.WAIT_FOR_FLIGHT
+    ]
     return {
         "format": LOG_FORMAT,
         "mission_id": record.mission_id,
@@ -64,10 +67,10 @@ def build_log(record: MissionRecord) -> dict[str, Any]:
         "waypoints_planned": len(waypoint_steps),
         "waypoints_reached": sum(1 for i in waypoint_steps if i in record.done),
         "work": record.work,
-        "area": record.area,
+        "area": record.area.model_dump(mode="json") if record.area else None,
         "done": {str(k): v for k, v in sorted(record.done.items())},
-        "alarms": record.alarms,
-        "handovers": record.handovers,
-        "expansions": record.expansions,
+        "alarms": [a.model_dump(mode="json") for a in record.alarms],
+        "handovers": [h.model_dump(mode="json") for h in record.handovers],
+        "expansions": [e.model_dump(mode="json") for e in record.expansions],
         "drones": list(drones.values()),
     }

@@ -14,9 +14,20 @@ from typing import Any
 from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
-from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.models import (
+    Handover,
+    HandoverKind,
+    LatLon,
+    Leg,
+    LegState,
+    MissionRecord,
+    MissionState,
+)
 from dronefleet.ground.planner.ops import PlannerOps
+from dronefleet.ground.planner.options import LegRole
 from dronefleet.ground.planner.units import remaining
+from dronefleet.messaging.commands import Command
+from dronefleet.messaging.status import Alarm
 
 log = logging.getLogger(__name__)
 
@@ -25,7 +36,7 @@ def camera_state(record: MissionRecord, leg: Leg) -> float:
     """The camera-trigger distance in force when the leg stopped (0: off)."""
     distance = 0.0
     for i in leg.indices:
-        if i in record.done and record.work[i].get("command") == "camera_trigger":
+        if i in record.done and record.work[i].get("command") == Command.CAMERA_TRIGGER:
             distance = float(record.work[i].get("value") or 0.0)
     return distance
 
@@ -61,41 +72,37 @@ def pick(
     return None, "no idle drone can take over" + (f" ({'; '.join(reasons)})" if reasons else "")
 
 
-async def replace(
-    planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: dict[str, Any]
-) -> None:
+async def replace(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: Alarm) -> None:
     """Replace the drone flying ``leg`` after its CRITICAL ``alarm``."""
     async with planner.lock:
-        if leg.role in ("recovery", "leaving"):
+        if leg.role.outgoing:
             return  # already on its way out: its replacement is planned
-        if not leg.active or any(h["from_leg"] == leg.leg_id for h in record.handovers):
+        if not leg.active or record.handed_over(leg):
             return
         leg.state = LegState.REPLACED
         left = remaining(record.work, leg.indices, set(record.done))
-        pos = alarm.get("position") or {}
-        near = (pos["lat"], pos["lon"])
-        handover: dict[str, Any] = {
-            "from_drone": leg.drone_id,
-            "from_leg": leg.leg_id,
-            "reason": alarm.get("message") or "CRITICAL alarm",
-            "alarm_vehicle_s": alarm.get("vehicle_time_s"),
-            "resume_position": {"lat": near[0], "lon": near[1]},
-            "resume_index": left[0] if left else None,
-            "remaining_steps": len(left),
-            "kind": "on alarm",
-            "leave_vehicle_s": alarm.get("vehicle_time_s"),
-        }
+        near = (alarm.position.lat, alarm.position.lon)
+        handover = Handover(
+            kind=HandoverKind.ON_ALARM,
+            from_drone=leg.drone_id,
+            from_leg=leg.leg_id,
+            reason=alarm.message or "CRITICAL alarm",
+            alarm_vehicle_s=alarm.vehicle_time_s,
+            resume_position=LatLon(lat=near[0], lon=near[1]),
+            resume_index=left[0] if left else None,
+            remaining_steps=len(left),
+            leave_vehicle_s=alarm.vehicle_time_s,
+        )
         record.handovers.append(handover)
         # The failing drone stops and comes down where it is (the seed's controlled descent).
         recovery = Leg(
             leg_id=planner.next_leg_id(record),
             drone_id=leg.drone_id,
-            role="recovery",
-            prefix=[{"command": "land"}, {"command": "wait_for_flight"}],
+            role=LegRole.RECOVERY,
+            prefix=[{"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value}],
         )
         await planner.send_leg(record, recovery)
         if not left:
-            handover["to_drone"] = None
             await planner.save(record)
             return
         try:
@@ -105,7 +112,7 @@ async def replace(
         work = [record.work[i] for i in left]
         trigger = camera_state(record, leg)  # restored on arrival, for fly-through surveys
         altitude = mission_altitude(record.work)
-        strategy = record.options.get("strategy", "ours")
+        strategy = record.options.strategy
         chosen, prefix_or_reason = (
             (None, why)
             if not fleet
@@ -121,8 +128,7 @@ async def replace(
             )
         )
         if chosen is None:
-            handover["to_drone"] = None
-            handover["error"] = prefix_or_reason
+            handover.error = str(prefix_or_reason)
             record.state = MissionState.FAILED
             record.error = f"replacement failed: {prefix_or_reason}"
             await planner.save(record)
@@ -132,16 +138,16 @@ async def replace(
         assert not isinstance(prefix_or_reason, str)  # a chosen drone comes with its preparation
         prefix = prefix_or_reason
         if trigger:
-            prefix = [*prefix, {"command": "camera_trigger", "value": trigger}]
+            prefix = [*prefix, {"command": Command.CAMERA_TRIGGER.value, "value": trigger}]
         new_leg = Leg(
             leg_id=planner.next_leg_id(record),
             drone_id=chosen.drone_id,
-            role="replacement",
+            role=LegRole.REPLACEMENT,
             prefix=prefix,
             indices=left,
         )
-        handover.update(to_drone=chosen.drone_id, to_leg=new_leg.leg_id)
+        handover.to_drone, handover.to_leg = chosen.drone_id, new_leg.leg_id
         record.state = MissionState.HANDED_OVER
         await planner.send_leg(record, new_leg)
-        planner.emit("handover", mission_id=record.mission_id, **handover)
+        planner.emit("handover", mission_id=record.mission_id, **handover.model_dump(mode="json"))
         log.info("mission %s: %s replaces %s", record.mission_id, chosen.drone_id, leg.drone_id)

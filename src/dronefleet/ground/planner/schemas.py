@@ -11,7 +11,12 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict
 
-from dronefleet.ground.planner.models import MissionState
+__all__ = ["LatLon", "MissionDetail", "MissionSummary", "Preview"]
+
+from dronefleet.ground.planner.coverage import AreaSpec
+from dronefleet.ground.planner.models import Expansion, Handover, LatLon, Leg, MissionState
+from dronefleet.ground.planner.options import RecordOptions
+from dronefleet.messaging.status import Alarm
 
 
 class MissionSummary(BaseModel):
@@ -47,21 +52,16 @@ class MissionDetail(BaseModel):
     created_at: float
     started_at: float | None
     ended_at: float | None
-    handovers: list[dict[str, Any]]
-    expansions: list[dict[str, Any]]
+    handovers: list[Handover]
+    expansions: list[Expansion]
     error: str | None
-    area: dict[str, Any] | None
+    area: AreaSpec | None
     work: list[dict[str, Any]]
     done: dict[str, str]
     required: list[int] | None
-    legs: list[dict[str, Any]]
-    alarms: list[dict[str, Any]]
-    options: dict[str, Any]
-
-
-class LatLon(BaseModel):
-    lat: float
-    lon: float
+    legs: list[Leg]
+    alarms: list[Alarm]
+    options: RecordOptions
 
 
 class DroneShare(BaseModel):

@@ -31,11 +31,21 @@ from dronefleet.ground.planner.units import remaining
 from dronefleet.ground.planner.worker import PlanningWorker
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
-from dronefleet.messaging.codec import MessageError, decode_object
+from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.commands import AlarmLevel, Command
+from dronefleet.messaging.common import Position
+from dronefleet.messaging.ground_events import PlannerEvent
+from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.log_throttle import LogThrottle
-from dronefleet.messaging.missions import MissionAction, MissionRequest
+from dronefleet.messaging.missions import (
+    MissionAction,
+    MissionProgress,
+    MissionRequest,
+    ProgressEvent,
+)
 from dronefleet.messaging.rpc import Requester
-from dronefleet.messaging.topics import Channel, Direction, any_drone, topic
+from dronefleet.messaging.status import Alarm, Telemetry
+from dronefleet.messaging.topics import PLANNER_EVENTS, Channel, Direction, any_drone, topic
 
 log = logging.getLogger(__name__)
 _throttle = LogThrottle(
@@ -165,11 +175,8 @@ class MissionPlanner:
             log.error("planner task %s failed", task.get_name(), exc_info=task.exception())
 
     async def _announce(self, event: str, data: dict[str, Any]) -> None:
-        from dronefleet.ground.manager.stream import PLANNER_EVENTS_TOPIC
-
-        await self.client.publish(
-            PLANNER_EVENTS_TOPIC, {**data, "event": event}, qos=QOS_STREAM, disposable=True
-        )
+        message = PlannerEvent.model_validate({**data, "event": event})
+        await self.client.publish(PLANNER_EVENTS, message, qos=QOS_STREAM, disposable=True)
 
     # -- records -----------------------------------------------------------------------------
     def get(self, mission_id: str) -> MissionRecord:
@@ -211,7 +218,7 @@ class MissionPlanner:
         request = MissionRequest(
             mission_id=leg.leg_id,
             steps=leg.drone_steps(record.work),
-            onboard=record.options.get("onboard"),
+            onboard=record.options.onboard,
         )
         await self.client.publish(
             topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
@@ -239,68 +246,77 @@ class MissionPlanner:
     # -- progress ----------------------------------------------------------------------------
     async def _on_progress(self, topic_name: str, payload: bytes) -> None:
         try:
-            msg = decode_object(payload)
+            msg = parse_message(MissionProgress, payload)
+            speaks_for_itself(topic_name, msg.drone_id)
         except MessageError as exc:
             _throttle.log(
                 logging.WARNING, "progress", "dropping progress on %s: %s", topic_name, exc
             )
             return
-        mission_id = self._legs.get(str(msg.get("mission_id")))
+        mission_id = self._legs.get(msg.mission_id)
         if mission_id is None:
             return  # not one of ours (a mission sent by hand, or the demo)
         async with self._lock:
             record = self.missions[mission_id]
-            leg = record.leg(str(msg["mission_id"]))
-            if leg is None or record.terminal:
+            leg = record.leg(msg.mission_id)
+            if leg is None or record.terminal or leg.drone_id != msg.drone_id:
                 return
             self._apply(record, leg, msg)
             await self.save(record)
-        self.emit("progress", **{**msg, "mission_id": mission_id, "leg_id": leg.leg_id})
+        data = msg.model_dump(mode="json", exclude_none=True)
+        self.emit("progress", **{**data, "mission_id": mission_id, "leg_id": leg.leg_id})
         await self.after_progress(record, leg, msg)
-        if msg.get("event") == "step" and leg.active and leg.leg_id not in self._checking:
+        if msg.event is ProgressEvent.STEP and leg.active and leg.leg_id not in self._checking:
             from dronefleet.ground.planner import early
 
             self._checking.add(leg.leg_id)
             self.spawn(early.check(self, record, leg), f"early:{leg.leg_id}")
 
-    def _apply(self, record: MissionRecord, leg: Leg, msg: dict[str, Any]) -> None:
-        event = msg.get("event")
-        if event == "accepted" and leg.state is LegState.SENT:
+    def _apply(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
+        event = msg.event
+        if event is ProgressEvent.ACCEPTED and leg.state is LegState.SENT:
             leg.state = LegState.RUNNING
-            leg.started_vehicle_s = msg.get("vehicle_time_s")
+            leg.started_vehicle_s = msg.vehicle_time_s
             if record.started_at is None:
                 record.started_at = timestamp_s()
-        elif event == "step":
-            drone_step = int(msg.get("step_index", -1))
-            index = leg.global_index(drone_step)
-            if any(r.drone_step == drone_step for r in leg.reports):
-                return  # a duplicate delivery (QoS 1 is at-least-once)
-            leg.reports.append(
-                StepReport(
-                    index=index,
-                    drone_step=drone_step,
-                    command=str(msg.get("command")),
-                    position=msg.get("position"),
-                    started_s=msg.get("step_started_s"),
-                    duration_s=msg.get("step_duration_s"),
-                    vehicle_time_s=msg.get("vehicle_time_s"),
-                )
-            )
-            if index is not None:
-                record.done.setdefault(index, leg.drone_id)
-            self._path_point(record, leg.drone_id, msg.get("vehicle_time_s"), msg.get("position"))
-        elif event == "completed" and leg.active:
+        elif event is ProgressEvent.STEP and msg.step_index is not None:
+            self._step_done(record, leg, msg, msg.step_index)
+        elif not leg.active:
+            return
+        elif event is ProgressEvent.COMPLETED:
             leg.state = LegState.COMPLETED
-            leg.ended_vehicle_s = msg.get("vehicle_time_s")
-        elif event in ("failed", "rejected") and leg.active:
+            leg.ended_vehicle_s = msg.vehicle_time_s
+        elif event in (ProgressEvent.FAILED, ProgressEvent.REJECTED):
             leg.state = LegState.FAILED
-            leg.error = msg.get("error")
-            leg.ended_vehicle_s = msg.get("vehicle_time_s")
-        elif event == "stopped" and leg.active:
+            leg.error = msg.error
+            leg.ended_vehicle_s = msg.vehicle_time_s
+        elif event is ProgressEvent.STOPPED:
             leg.state = LegState.STOPPED
-            leg.ended_vehicle_s = msg.get("vehicle_time_s")
+            leg.ended_vehicle_s = msg.vehicle_time_s
 
-    async def after_progress(self, record: MissionRecord, leg: Leg, msg: dict[str, Any]) -> None:
+    def _step_done(
+        self, record: MissionRecord, leg: Leg, msg: MissionProgress, drone_step: int
+    ) -> None:
+        if any(r.drone_step == drone_step for r in leg.reports):
+            return  # a duplicate delivery (QoS 1 is at-least-once)
+        index = leg.global_index(drone_step)
+        position = msg.position.model_dump(mode="json") if msg.position else None
+        leg.reports.append(
+            StepReport(
+                index=index,
+                drone_step=drone_step,
+                command=str(msg.command),
+                position=position,
+                started_s=msg.step_started_s,
+                duration_s=msg.step_duration_s,
+                vehicle_time_s=msg.vehicle_time_s,
+            )
+        )
+        if index is not None:
+            record.done.setdefault(index, leg.drone_id)
+        self._path_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
+
+    async def after_progress(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
         """Close the mission when nothing is left to fly, or fail it when a leg failed."""
         async with self._lock:
             if record.terminal or record.active_legs():
@@ -326,42 +342,41 @@ class MissionPlanner:
     # -- alarms ------------------------------------------------------------------------------
     async def _on_alarm(self, topic_name: str, payload: bytes) -> None:
         try:
-            alarm = decode_object(payload)
-            drone_id, level = str(alarm["drone_id"]), str(alarm["level"])
-        except (MessageError, KeyError) as exc:
+            alarm = parse_message(Alarm, payload)
+            speaks_for_itself(topic_name, alarm.drone_id)
+        except MessageError as exc:
             _throttle.log(logging.WARNING, "alarm", "dropping alarm on %s: %s", topic_name, exc)
             return
+        data = alarm.model_dump(mode="json", exclude_none=True)
         async with self._lock:
-            record, leg = self._mission_of(drone_id, alarm.get("mission_id"))
+            record, leg = self._mission_of(alarm.drone_id, alarm.mission_id)
             if record is None or leg is None:
-                self.emit("alarm", **alarm)
+                self.emit("alarm", **data)
                 return
-            if any(a.get("timestamp") == alarm.get("timestamp") for a in record.alarms):
+            if any(a.timestamp == alarm.timestamp for a in record.alarms):
                 return  # duplicate delivery
             record.alarms.append(alarm)
-            index = (
-                leg.global_index(int(alarm["step_index"]))
-                if alarm.get("step_index") is not None
-                else None
-            )
-            if index is not None and record.work[index].get("command") == "virtualalarm":
-                record.done.setdefault(index, drone_id)
+            index = leg.global_index(alarm.step_index) if alarm.step_index is not None else None
+            if index is not None and record.work[index].get("command") == Command.VIRTUALALARM:
+                record.done.setdefault(index, alarm.drone_id)
             await self.save(record)
-        self.emit("alarm", **{**alarm, "mission_id": record.mission_id})
+        self.emit("alarm", **{**data, "mission_id": record.mission_id})
         from dronefleet.ground.planner import collaboration, replacement
 
-        if level == "CRITICAL" and record.options.get("replacement", True):
-            self.spawn(replacement.replace(self, record, leg, alarm), f"replace:{drone_id}")
-        elif level == "OUT_MEASURE" and record.options.get("collaboration", True):
-            self.spawn(collaboration.extend(self, record, leg, alarm), f"extend:{drone_id}")
+        if alarm.level is AlarmLevel.CRITICAL and record.options.replacement:
+            self.spawn(replacement.replace(self, record, leg, alarm), f"replace:{alarm.drone_id}")
+        elif alarm.level is AlarmLevel.OUT_MEASURE and record.options.collaboration:
+            self.spawn(collaboration.extend(self, record, leg, alarm), f"extend:{alarm.drone_id}")
 
-    def _mission_of(self, drone_id: str, leg_id: Any) -> tuple[MissionRecord | None, Leg | None]:
-        mission_id = self._legs.get(str(leg_id)) if leg_id else None
+    def _mission_of(
+        self, drone_id: str, leg_id: str | None
+    ) -> tuple[MissionRecord | None, Leg | None]:
+        mission_id = self._legs.get(leg_id) if leg_id else None
         records = [self.missions[mission_id]] if mission_id else list(self.missions.values())
         for record in records:
             if record.terminal:
                 continue
-            leg = record.leg(str(leg_id)) if leg_id else None
+            leg = record.leg(leg_id) if leg_id else None
             leg = leg if leg is not None and leg.active else record.leg_of(drone_id)
             if leg is not None and leg.drone_id == drone_id:
                 return record, leg
@@ -369,41 +384,39 @@ class MissionPlanner:
 
     # -- paths -------------------------------------------------------------------------------
     async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
-        drone_id = topic_name.split("/", 1)[0]
         try:
-            msg = decode_object(payload)
-            fields = msg["fields"]
-            if "battery_pct" in fields and "lat" in fields:
-                self.latest[drone_id] = {**fields, "vehicle_time_s": msg.get("vehicle_time_s")}
-        except (MessageError, KeyError, TypeError):
-            return
-        record, _leg = self._mission_of(drone_id, None)
-        if record is None:
+            msg = parse_message(Telemetry, payload)
+            speaks_for_itself(topic_name, msg.drone_id)
+        except MessageError:
+            return  # counted and dropped by the telemetry connector, which stores it
+        fields = msg.fields
+        if "battery_pct" in fields and "lat" in fields:
+            self.latest[msg.drone_id] = {**fields, "vehicle_time_s": msg.vehicle_time_s}
+        record, _leg = self._mission_of(msg.drone_id, None)
+        if record is None or not {"lat", "lon"} <= fields.keys():
             return
         try:
-            position = {
-                "lat": fields["lat"],
-                "lon": fields["lon"],
-                "relative_alt_m": fields.get("relative_alt_m", 0.0),
-            }
-        except (MessageError, KeyError, TypeError):
+            position = Position(
+                lat=fields["lat"],
+                lon=fields["lon"],
+                alt_m=fields.get("alt_m", 0.0),
+                relative_alt_m=fields.get("relative_alt_m", 0.0),
+            )
+        except ValueError:
             return
-        if self._path_point(record, drone_id, msg.get("vehicle_time_s"), position):
+        if self._path_point(record, msg.drone_id, msg.vehicle_time_s, position):
             self._dirty.add(record.mission_id)
 
-    def _path_point(self, record: MissionRecord, drone_id: str, t: Any, position: Any) -> bool:
-        if not isinstance(position, dict) or not isinstance(t, int | float):
+    def _path_point(
+        self, record: MissionRecord, drone_id: str, t: float | None, position: Position | None
+    ) -> bool:
+        if position is None or t is None:
             return False
         path = record.paths.setdefault(drone_id, [])
         if path and t - path[-1][0] < PATH_SAMPLE_S:
             return False
         path.append(
-            [
-                round(t, 2),
-                position["lat"],
-                position["lon"],
-                round(position.get("relative_alt_m") or 0.0, 2),
-            ]
+            [round(t, 2), position.lat, position.lon, round(position.relative_alt_m or 0.0, 2)]
         )
         return True
 

@@ -10,9 +10,20 @@ from __future__ import annotations
 
 from typing import Any
 
-MOVES = frozenset({"navigate", "changeN", "changeE", "altitude", "takeoff", "land"})
+from dronefleet.messaging.commands import Command
+
+MOVES = frozenset(
+    {
+        Command.NAVIGATE,
+        Command.CHANGE_N,
+        Command.CHANGE_E,
+        Command.ALTITUDE,
+        Command.TAKEOFF,
+        Command.LAND,
+    }
+)
 #: Steps that only make sense once, where they were: never part of a resumed or split mission.
-ONCE = frozenset({"virtualalarm", "arm", "disarm"})
+ONCE = frozenset({Command.VIRTUALALARM, Command.ARM, Command.DISARM})
 
 
 def units(work: list[dict[str, Any]], indices: list[int] | None = None) -> list[list[int]]:
@@ -44,10 +55,10 @@ def waypoints(
     return [
         (work[i]["lat"], work[i]["lon"], work[i].get("altitude_delta"))
         for i in indices
-        if work[i].get("command") == "navigate"
+        if work[i].get("command") == Command.NAVIGATE
     ]
 
 
 def first_target(work: list[dict[str, Any]], indices: list[int]) -> dict[str, Any] | None:
     """The first ``navigate`` step among ``indices`` (where a drone must go first)."""
-    return next((work[i] for i in indices if work[i].get("command") == "navigate"), None)
+    return next((work[i] for i in indices if work[i].get("command") == Command.NAVIGATE), None)

@@ -31,14 +31,14 @@ class Encoder:
 
     @property
     def system_id(self) -> int:
-        return self._mav.srcSystem
+        return int(self._mav.srcSystem)
 
     @system_id.setter
     def system_id(self, value: int) -> None:
         self._mav.srcSystem = value
 
     def pack(self, message: Message) -> bytes:
-        data = message.pack(self._mav)
+        data: bytes = message.pack(self._mav)
         self._mav.seq = (self._mav.seq + 1) % 256
         return data
 
