@@ -30,6 +30,7 @@ from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
 from dronefleet.messaging.topics import (
     GROUND_PREFIX,
+    IDENTIFIER_EVENTS,
     Channel,
     Direction,
     any_drone,
@@ -44,7 +45,7 @@ _throttle = LogThrottle(
 
 QUERY_TOPIC = ground("identifier", "in")
 REPLY_TOPIC = ground("identifier", "out")
-EVENTS_TOPIC = ground("identifier", "events")
+EVENTS_TOPIC = IDENTIFIER_EVENTS
 
 #: How often each drone's record is written to the state store while nothing else changes.
 PERSIST_EVERY_S = 5.0

@@ -91,5 +91,8 @@ def parse(topic_name: str) -> DroneTopic:
         raise TopicError(f"not a drone topic: {topic_name!r}") from exc
 
 
+#: What the Drone Identifier tells the other ground services (a drone new, lost, back online).
+IDENTIFIER_EVENTS = ground("identifier", "events")
+
 #: What the Mission Planner tells the web apps (mission created, leg started, handover...).
 PLANNER_EVENTS = ground("planner", "events")

@@ -78,3 +78,53 @@ async def test_ground_restart_during_a_replacement_loses_nothing():
     # Progress published while the planner was down reached it after the restart.
     assert any(s["vehicle_time_s"] > down_at for s in drones["QUAD_B"]["steps"])
     assert ORIGIN.lat < max(p["lat"] for p in drones["QUAD_B"]["path"])
+
+
+async def test_a_replacement_decided_just_before_the_ground_died_is_finished_after_it(monkeypatch):
+    """The handover is written (the failing drone sent down) and the ground dies before choosing
+    who takes over: the restarted planner finishes the handover (issue 13)."""
+    from dronefleet.ground.planner import replacement
+
+    decided = asyncio.Event()
+
+    async def dies_here(*_args, **_kwargs):
+        decided.set()
+        await asyncio.Event().wait()  # the ground is killed here
+
+    monkeypatch.setattr(replacement, "_hand_over", dies_here)
+    async with Harness(speedup=10) as h:
+        area = AreaSpec(
+            polygon=scenarios.rectangle(17, 0, 30, 60),
+            spacing_m=10,
+            altitude_m=10,
+            angle_deg=0,
+            grid="seed",
+        )
+        steps = scenarios.with_alarm(plan_area(area).mission_steps(), 13, "CRITICAL")
+        await h.add_drone("QUAD_A", NED(0, 0), hovering_m=10)
+        await h.add_drone("QUAD_B", NED(77, 70))
+        await h.wait_identified(["QUAD_A", "QUAD_B"])
+        await h.settle()
+        spec = MissionSpec(
+            name="restart mid-handover",
+            drones=["QUAD_A"],
+            steps=steps,
+            options=MissionOptions(strategy="seed", collaboration=False, early_replacement=False),
+        )
+        record = await launch.create(h.planner, spec, start=True)
+        async with asyncio.timeout(60):
+            await decided.wait()
+        await h.stop_ground()
+        monkeypatch.undo()
+        await h.start_ground()
+        record = await h.until_ended(record.mission_id, timeout_s=120)
+
+    assert record.state.value == "completed", record.error
+    assert len(record.handovers) == 1 and record.handovers[0].to_drone == "QUAD_B"
+    reached = {
+        r.index
+        for leg in record.legs
+        for r in leg.reports
+        if r.index is not None and record.work[r.index]["command"] == "wait_for_flight"
+    }
+    assert len(reached) == 28

@@ -114,7 +114,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
             indices=kept,
             suffix=[{"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value}],
         )
-        await planner.send_leg(record, leaving)
+        record.legs.append(leaving)  # sent below, once the whole decision is written
         trigger = camera_state(record, leg)
         if trigger:
             prefix.append({"command": Command.CAMERA_TRIGGER.value, "value": trigger})
@@ -144,8 +144,13 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         record.handovers.append(handover)
         record.state = MissionState.HANDED_OVER
         if rest:
-            await planner.send_leg(record, new_leg)
+            record.legs.append(new_leg)
+        # Written before acting: a ground killed between the two sends finds both legs in the
+        # record, and a drone that never got its leg is sent it again (reconcile.forgotten).
         await planner.save(record)
+        await planner.send_leg(record, leaving)
+        if rest:
+            await planner.send_leg(record, new_leg)
     planner.emit("handover", mission_id=record.mission_id, **handover.model_dump(mode="json"))
     log.info(
         "mission %s: early handover %s -> %s", record.mission_id, leg.drone_id, chosen.drone_id

@@ -26,6 +26,7 @@ class MissionState(StrEnum):
     RUNNING = "running"
     PAUSED = "paused"
     HANDED_OVER = "handed_over"  # running, after at least one replacement
+    STALLED = "stalled"  # cannot progress (a drone lost and nobody to take over): see ``error``
     COMPLETED = "completed"
     FAILED = "failed"
     STOPPED = "stopped"

@@ -72,8 +72,22 @@ def pick(
     return None, "no idle drone can take over" + (f" ({'; '.join(reasons)})" if reasons else "")
 
 
-async def replace(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: Alarm) -> None:
-    """Replace the drone flying ``leg`` after its CRITICAL ``alarm``."""
+#: What a replaced drone does: the seed's controlled descent where it is.
+LAND_HERE = ({"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value})
+
+
+async def replace(
+    planner: PlannerOps,
+    record: MissionRecord,
+    leg: Leg,
+    alarm: Alarm,
+    *,
+    recovery: tuple[dict[str, Any], ...] = LAND_HERE,
+    give_up: MissionState = MissionState.FAILED,
+) -> None:
+    """Replace the drone flying ``leg`` after its CRITICAL ``alarm`` (or its loss: ground/
+    planner/lost.py). The drone flies ``recovery``; with nobody to take over, the mission turns
+    ``give_up`` with the reason."""
     async with planner.lock:
         if leg.role.outgoing:
             return  # already on its way out: its replacement is planned
@@ -94,60 +108,87 @@ async def replace(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: A
             leave_vehicle_s=alarm.vehicle_time_s,
         )
         record.handovers.append(handover)
-        # The failing drone stops and comes down where it is (the seed's controlled descent).
-        recovery = Leg(
+        # The failing drone stops and comes down (where it is, unless told otherwise).
+        recovery_leg = Leg(
             leg_id=planner.next_leg_id(record),
             drone_id=leg.drone_id,
             role=LegRole.RECOVERY,
-            prefix=[{"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value}],
+            prefix=list(recovery),
         )
-        await planner.send_leg(record, recovery)
-        if not left:
-            await planner.save(record)
-            return
-        try:
-            fleet = await planner.fleet.drones()
-        except Exception as exc:
-            fleet, why = [], f"the Drone Identifier did not answer: {exc}"
-        work = [record.work[i] for i in left]
-        trigger = camera_state(record, leg)  # restored on arrival, for fly-through surveys
-        altitude = mission_altitude(record.work)
-        strategy = record.options.strategy
-        chosen, prefix_or_reason = (
-            (None, why)
-            if not fleet
-            else await planner.worker.run(
-                pick,
-                planner.reserve_pct,
-                fleet,
-                near,
-                work,
-                altitude,
-                planner.busy_drones() | {leg.drone_id},
-                strategy,
-            )
+        await planner.send_leg(record, recovery_leg)
+        if left:
+            await _hand_over(planner, record, leg, handover, left, give_up)
+
+
+async def resume(planner: PlannerOps, record: MissionRecord) -> None:
+    """Finish the handovers a ground restart interrupted: decided and written (the old drone
+    was sent its recovery) but nobody chosen yet."""
+    for handover in record.handovers:
+        leg = record.leg(handover.from_leg)
+        unfinished = handover.to_leg is None and handover.error is None
+        if leg is None or not unfinished or handover.kind is not HandoverKind.ON_ALARM:
+            continue
+        async with planner.lock:
+            left = remaining(record.work, leg.indices, set(record.done))
+            if left and not record.terminal:
+                log.info("mission %s: resuming the handover of %s", record.mission_id, leg.leg_id)
+                await _hand_over(planner, record, leg, handover, left, MissionState.STALLED)
+
+
+async def _hand_over(
+    planner: PlannerOps,
+    record: MissionRecord,
+    leg: Leg,
+    handover: Handover,
+    left: list[int],
+    give_up: MissionState,
+) -> None:
+    """Choose who flies ``left`` and send it (the planner's lock held)."""
+    assert handover.resume_position is not None  # an on-alarm handover says where to resume
+    near = (handover.resume_position.lat, handover.resume_position.lon)
+    try:
+        fleet = await planner.fleet.drones()
+        why = "no drone is known to the Drone Identifier"
+    except Exception as exc:
+        fleet, why = [], f"the Drone Identifier did not answer: {exc}"
+    work = [record.work[i] for i in left]
+    trigger = camera_state(record, leg)  # restored on arrival, for fly-through surveys
+    altitude = mission_altitude(record.work)
+    chosen, prefix_or_reason = (
+        (None, why)
+        if not fleet
+        else await planner.worker.run(
+            pick,
+            planner.reserve_pct,
+            fleet,
+            near,
+            work,
+            altitude,
+            planner.busy_drones() | {leg.drone_id},
+            record.options.strategy,
         )
-        if chosen is None:
-            handover.error = str(prefix_or_reason)
-            record.state = MissionState.FAILED
-            record.error = f"replacement failed: {prefix_or_reason}"
-            await planner.save(record)
-            planner.emit("mission", **record.summary())
-            log.warning("mission %s: %s", record.mission_id, record.error)
-            return
-        assert not isinstance(prefix_or_reason, str)  # a chosen drone comes with its preparation
-        prefix = prefix_or_reason
-        if trigger:
-            prefix = [*prefix, {"command": Command.CAMERA_TRIGGER.value, "value": trigger}]
-        new_leg = Leg(
-            leg_id=planner.next_leg_id(record),
-            drone_id=chosen.drone_id,
-            role=LegRole.REPLACEMENT,
-            prefix=prefix,
-            indices=left,
-        )
-        handover.to_drone, handover.to_leg = chosen.drone_id, new_leg.leg_id
-        record.state = MissionState.HANDED_OVER
-        await planner.send_leg(record, new_leg)
-        planner.emit("handover", mission_id=record.mission_id, **handover.model_dump(mode="json"))
-        log.info("mission %s: %s replaces %s", record.mission_id, chosen.drone_id, leg.drone_id)
+    )
+    if chosen is None:
+        handover.error = str(prefix_or_reason)
+        record.state = give_up
+        record.error = f"replacement failed: {prefix_or_reason}"
+        await planner.save(record)
+        planner.emit("mission", **record.summary())
+        log.warning("mission %s: %s", record.mission_id, record.error)
+        return
+    assert not isinstance(prefix_or_reason, str)  # a chosen drone comes with its preparation
+    prefix = prefix_or_reason
+    if trigger:
+        prefix = [*prefix, {"command": Command.CAMERA_TRIGGER.value, "value": trigger}]
+    new_leg = Leg(
+        leg_id=planner.next_leg_id(record),
+        drone_id=chosen.drone_id,
+        role=LegRole.REPLACEMENT,
+        prefix=prefix,
+        indices=left,
+    )
+    handover.to_drone, handover.to_leg = chosen.drone_id, new_leg.leg_id
+    record.state = MissionState.HANDED_OVER
+    await planner.send_leg(record, new_leg)
+    planner.emit("handover", mission_id=record.mission_id, **handover.model_dump(mode="json"))
+    log.info("mission %s: %s replaces %s", record.mission_id, chosen.drone_id, leg.drone_id)

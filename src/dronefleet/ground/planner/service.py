@@ -17,6 +17,7 @@ from typing import Any
 
 from dronefleet.clock import timestamp_s
 from dronefleet.errors import Conflict, InvalidInput, NotFound
+from dronefleet.ground.planner import reconcile
 from dronefleet.ground.planner.fleet_view import FleetView
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
@@ -45,7 +46,14 @@ from dronefleet.messaging.missions import (
 )
 from dronefleet.messaging.rpc import Requester
 from dronefleet.messaging.status import Alarm, Telemetry
-from dronefleet.messaging.topics import PLANNER_EVENTS, Channel, Direction, any_drone, topic
+from dronefleet.messaging.topics import (
+    IDENTIFIER_EVENTS,
+    PLANNER_EVENTS,
+    Channel,
+    Direction,
+    any_drone,
+    topic,
+)
 
 log = logging.getLogger(__name__)
 _throttle = LogThrottle(
@@ -90,6 +98,7 @@ class MissionPlanner:
         self._flusher: asyncio.Task[None] | None = None
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self._checking: set[str] = set()  # legs whose early-replacement check is running
+        self.lost: set[str] = set()  # drones the Drone Identifier last declared lost
 
     @property
     def lock(self) -> asyncio.Lock:
@@ -112,24 +121,19 @@ class MissionPlanner:
         await self.client.subscribe(
             any_drone(Channel.TELEMETRY), self._on_telemetry, qos=QOS_STREAM
         )
+        await self.client.subscribe(
+            IDENTIFIER_EVENTS,
+            lambda t, p: reconcile.on_fleet_event(self, t, p),
+            qos=QOS_STREAM,
+        )
         await self.client.wait_connected(15)
         self._flusher = asyncio.create_task(self._flush_paths(), name="planner:paths")
-        await self._catch_up()
+        # Whatever was published while the planner was away (not every broker queues for an
+        # offline session) is asked for again, at start and after every reconnect.
+        await reconcile.ask_reports(self)
+        self.spawn(reconcile.resume(self), "planner:resume")
+        self.spawn(reconcile.watch_reconnects(self), "planner:reconnects")
         return self
-
-    async def _catch_up(self) -> None:
-        """Ask every drone with an active leg to re-send its reports: whatever was published while
-        the planner was away (not every broker queues for an offline session) arrives now, and
-        duplicates are dropped by step index."""
-        for record in self.missions.values():
-            if record.terminal:
-                continue
-            for leg in record.active_legs():
-                await self.client.publish(
-                    topic(leg.drone_id, Channel.MISSION, Direction.IN),
-                    MissionRequest(mission_id=leg.leg_id, action=MissionAction.REPORT),
-                    qos=QOS_COMMAND,
-                )
 
     async def stop(self) -> None:
         if self._flusher is not None:
@@ -261,6 +265,9 @@ class MissionPlanner:
             leg = record.leg(msg.mission_id)
             if leg is None or record.terminal or leg.drone_id != msg.drone_id:
                 return
+            if reconcile.answers_a_report_request(msg):
+                self.spawn(reconcile.forgotten(self, record, leg), f"forgotten:{leg.leg_id}")
+                return
             self._apply(record, leg, msg)
             await self.save(record)
         data = msg.model_dump(mode="json", exclude_none=True)
@@ -319,14 +326,19 @@ class MissionPlanner:
     async def after_progress(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
         """Close the mission when nothing is left to fly, or fail it when a leg failed."""
         async with self._lock:
-            if record.terminal or record.active_legs():
+            if record.terminal or any(lg.drone_id not in self.lost for lg in record.active_legs()):
                 return
+            # Every leg has ended (or its drone is lost, its work taken over): so has the mission;
+            # its state follows from its legs'.
             left = remaining(record.work, record.required_indices(), set(record.done))
             if not left:
                 await self._finish(record, MissionState.COMPLETED)
             elif any(lg.state is LegState.FAILED for lg in record.legs):
                 failed = next(lg for lg in reversed(record.legs) if lg.state is LegState.FAILED)
                 await self._finish(record, MissionState.FAILED, failed.error or "a leg failed")
+            else:
+                why = f"every leg ended with {len(left)} steps not flown"
+                await self._finish(record, MissionState.FAILED, record.error or why)
 
     async def _finish(
         self, record: MissionRecord, state: MissionState, error: str | None = None

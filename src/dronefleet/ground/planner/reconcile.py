@@ -1,0 +1,125 @@
+"""Missions reconcile instead of hanging (issue 13).
+
+- After a reconnect to the broker (not only at start), the planner asks every drone of every
+  unfinished mission to re-send its reports for each of its legs: whatever was published while
+  the link was down arrives, and duplicates are dropped by step.
+- A drone the Drone Identifier declares lost has its work taken over (ground/planner/lost.py).
+- A drone back online is sent its active legs again (a restarted drone forgot them) and asked
+  for its reports, so what it did while unheard is recorded.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import secrets
+from typing import TYPE_CHECKING
+
+from dronefleet.ground.planner import lost, replacement
+from dronefleet.ground.planner.models import Leg, LegState, MissionRecord
+from dronefleet.messaging.client import QOS_COMMAND
+from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.ground_events import FleetChange, FleetEvent
+from dronefleet.messaging.inbound import parse_message
+from dronefleet.messaging.missions import (
+    MissionAction,
+    MissionProgress,
+    MissionRequest,
+    ProgressEvent,
+)
+from dronefleet.messaging.topics import Channel, Direction, topic
+
+if TYPE_CHECKING:
+    from dronefleet.ground.planner.service import MissionPlanner
+
+log = logging.getLogger(__name__)
+
+#: The request ids of the planner's report requests start so; a drone echoes them.
+REPORT_PREFIX = "report-"
+#: How often the planner looks whether its broker link was made again (event-loop seconds).
+RECONNECT_POLL_S = 1.0
+
+
+async def ask_reports(planner: MissionPlanner, drone_id: str | None = None) -> None:
+    """Ask for the reports of every leg of every unfinished mission (of ``drone_id`` only)."""
+    for record in list(planner.missions.values()):
+        if record.terminal:
+            continue
+        for leg in record.legs:
+            if drone_id is not None and leg.drone_id != drone_id:
+                continue
+            request = MissionRequest(
+                request_id=f"{REPORT_PREFIX}{secrets.token_hex(8)}",
+                mission_id=leg.leg_id,
+                action=MissionAction.REPORT,
+            )
+            await planner.client.publish(
+                topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
+            )
+
+
+def answers_a_report_request(progress: MissionProgress) -> bool:
+    """A drone's refusal of :func:`ask_reports`: it keeps no report of that leg."""
+    return progress.event is ProgressEvent.REJECTED and (progress.request_id or "").startswith(
+        REPORT_PREFIX
+    )
+
+
+async def forgotten(planner: MissionPlanner, record: MissionRecord, leg: Leg) -> None:
+    """The drone keeps nothing of ``leg``: it never got it (sent again), or it was restarted
+    and lost it mid-flight (its work is taken over, as a lost drone's)."""
+    if record.terminal or not leg.active:
+        return
+    if leg.state is LegState.SENT or leg.role.outgoing:
+        log.info(
+            "mission %s: %s never got leg %s; sending it again",
+            record.mission_id,
+            leg.drone_id,
+            leg.leg_id,
+        )
+        await planner.send_leg(record, leg)
+        return
+    why = f"drone {leg.drone_id} no longer knows leg {leg.leg_id} (restarted?)"
+    await lost.take_over(planner, record, leg, why)
+
+
+async def resume(planner: MissionPlanner) -> None:
+    """At start: finish what a ground restart interrupted (handovers decided, nobody chosen)."""
+    for record in list(planner.missions.values()):
+        if not record.terminal:
+            await replacement.resume(planner, record)
+
+
+async def watch_reconnects(planner: MissionPlanner) -> None:
+    """Catch up each time the broker link is made again."""
+    seen = planner.client.connections
+    while True:
+        await asyncio.sleep(RECONNECT_POLL_S)
+        now = planner.client.connections
+        if now != seen and planner.client.connected:
+            seen = now
+            log.info("planner: broker link back; asking the drones for their reports")
+            await ask_reports(planner)
+
+
+async def on_fleet_event(planner: MissionPlanner, topic_name: str, payload: bytes) -> None:
+    try:
+        event = parse_message(FleetEvent, payload)
+    except MessageError as exc:
+        log.debug("planner: dropping fleet event on %s: %s", topic_name, exc)
+        return
+    if event.event is FleetChange.LOST:
+        planner.lost.add(event.drone_id)
+        for record in list(planner.missions.values()):
+            leg = None if record.terminal else record.leg_of(event.drone_id)
+            if leg is not None and not leg.role.outgoing:
+                why = f"drone {event.drone_id} lost: no heartbeat for 3 intervals"
+                job = lost.take_over(planner, record, leg, why, event.drone)
+                planner.spawn(job, f"lost:{leg.leg_id}")
+    elif event.event is FleetChange.ONLINE:
+        planner.lost.discard(event.drone_id)
+        for record in list(planner.missions.values()):
+            for leg in record.active_legs():
+                if leg.drone_id == event.drone_id and leg.role.outgoing:
+                    await planner.send_leg(record, leg)  # again: it may have been restarted
+        await ask_reports(planner, event.drone_id)
