@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -20,7 +18,7 @@ from dronefleet import virtual_loop
 from dronefleet.geo.types import NED
 from dronefleet.signals import stop_event
 
-DEMO_TOKENS = "demo-tokens.json"
+LEGACY_TOKENS = "demo-tokens.json"  # written by earlier versions, in plaintext
 
 DEMO_SQUARE = [NED(30, 0), NED(30, 30), NED(0, 30), NED(0, 0)]
 
@@ -93,23 +91,18 @@ def demo_mission(home) -> list[dict[str, Any]]:
 
 
 async def _tokens(book: Any, state_dir: Path, given: str | None) -> tuple[str, str]:
-    """The operator and viewer tokens: the ones printed last time, kept in the state folder.
+    """Fresh operator and viewer tokens (or ``--token`` for the operator), printed once.
 
-    The ground keeps only hashes; the demo keeps its two tokens in ``demo-tokens.json`` (owner
-    only) so that a restarted demo prints, and accepts, the same ones and an open page stays in.
+    Nothing on disk holds a token (issue 12): the ground keeps only their hashes, so a restarted
+    demo prints new ones, and an earlier demo's plaintext ``demo-tokens.json`` is removed.
     """
     from dronefleet.ground.manager.auth import Role, new_token
 
-    path = state_dir / DEMO_TOKENS
-    saved: dict[str, Any] = {}
-    with contextlib.suppress(OSError, ValueError):
-        saved = json.loads(path.read_text())
-    operator = given or saved.get("operator") or new_token()
-    viewer = saved.get("viewer") or new_token()
+    (state_dir / LEGACY_TOKENS).unlink(missing_ok=True)
+    operator = given or new_token()
+    viewer = new_token()
     await book.issue("operator", Role.OPERATOR, operator)
     await book.issue("viewer", Role.VIEWER, viewer)
-    path.touch(mode=0o600)
-    path.write_text(json.dumps({"operator": operator, "viewer": viewer}))
     return operator, viewer
 
 

@@ -174,7 +174,11 @@ class DroneIdentifier:
         for query in (GearQuery.SPECS, GearQuery.SENSORS):
             try:
                 reply = await self.requester.request(
-                    gear_in, reply_pattern, GearRequest(query=query), timeout_s=GEAR_TIMEOUT_S
+                    gear_in,
+                    reply_pattern,
+                    GearRequest(query=query),
+                    timeout_s=GEAR_TIMEOUT_S,
+                    reply_topic=topic(drone_id, Channel.GEAR, Direction.OUT),
                 )
             except RequestTimeout:
                 log.info("drone %s did not answer the %s query; will ask again", drone_id, query)

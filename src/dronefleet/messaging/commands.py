@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, TypeAdapter
 
 from dronefleet.messaging.codec import MessageError
-from dronefleet.messaging.common import Message, validate, wall_time
+from dronefleet.messaging.common import DroneId, Message, validate, wall_time
 
 #: Largest relative move or climb one command may ask for, in metres.
 MAX_RELATIVE_MOVE_M = 5_000.0
@@ -240,7 +240,7 @@ class CommandResponse(Message):
     """The Drone Controller's answer on ``control/out``."""
 
     request_id: str | None
-    drone_id: str
+    drone_id: DroneId
     command: str | None
     ok: bool
     error: str | None = None

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import secrets
 from enum import StrEnum
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
 from dronefleet.clock import timestamp_s
 from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.topics import TopicError, check_drone_id
 
 
 def new_request_id() -> str:
@@ -21,6 +22,18 @@ def wall_time() -> float:
     """Unix time in seconds on the running loop's clock (virtual in a simulation); every message
     carries it beside the vehicle time."""
     return timestamp_s()
+
+
+def _a_drone_id(value: str) -> str:
+    try:
+        return check_drone_id(value)
+    except TopicError as exc:
+        raise ValueError(str(exc)) from exc
+
+
+#: A drone id as topics allow it (messaging/topics.py): what a drone may call itself in any
+#: message. Ids reach web pages and logs, so nothing else is accepted (issue 12).
+DroneId = Annotated[str, AfterValidator(_a_drone_id)]
 
 
 class Message(BaseModel):

@@ -8,7 +8,7 @@ from typing import Any
 from pydantic import Field
 
 from dronefleet.messaging.commands import RequestId
-from dronefleet.messaging.common import Message, wall_time
+from dronefleet.messaging.common import DroneId, Message, wall_time
 
 
 class GearQuery(StrEnum):
@@ -26,7 +26,7 @@ class GearRequest(Message):
 
 class GearReply(Message):
     request_id: str | None
-    drone_id: str
+    drone_id: DroneId
     query: str | None
     ok: bool
     error: str | None = None

@@ -12,7 +12,7 @@ from typing import Any
 
 from pydantic import ConfigDict, Field
 
-from dronefleet.messaging.common import Message
+from dronefleet.messaging.common import DroneId, Message
 
 
 class FleetChange(StrEnum):
@@ -26,7 +26,7 @@ class FleetEvent(Message):
     """On ``ground/identifier/events``."""
 
     event: FleetChange
-    drone_id: str = Field(min_length=1, max_length=64)
+    drone_id: DroneId
     drone: dict[str, Any] = Field(description="the drone as GET /api/v1/drones/{id} shows it")
 
 

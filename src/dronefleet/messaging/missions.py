@@ -16,7 +16,7 @@ from pydantic import Field
 
 from dronefleet.messaging.codec import MessageError, decode, encode
 from dronefleet.messaging.commands import RequestId, parse_step
-from dronefleet.messaging.common import Message, Position, wall_time
+from dronefleet.messaging.common import DroneId, Message, Position, wall_time
 
 MAX_STEPS = 10_000
 
@@ -89,7 +89,7 @@ class ProgressEvent(StrEnum):
 class MissionProgress(Message):
     """One progress report from the Mission Worker."""
 
-    drone_id: str
+    drone_id: DroneId
     mission_id: str
     request_id: str | None = None
     event: ProgressEvent

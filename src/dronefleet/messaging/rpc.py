@@ -32,7 +32,9 @@ class Requester:
     def __init__(self, client: BrokerClient) -> None:
         self.client = client
         self._pending: dict[str, asyncio.Future[dict[str, Any]]] = {}
+        self._from: dict[str, str] = {}  # request id -> the only topic its answer may come on
         self._subscribed: dict[str, asyncio.Future[None]] = {}
+        self.foreign = 0  # answers that echoed a pending request id on another topic: ignored
 
     async def _ensure(self, reply_pattern: str) -> None:
         """Subscribe once per pattern; every request (even one made meanwhile) waits for it."""
@@ -50,7 +52,14 @@ class Requester:
         except MessageError as exc:
             log.warning("dropping malformed reply on %s: %s", topic_name, exc)
             return
-        future = self._pending.get(str(data.get("request_id")))
+        request_id = str(data.get("request_id"))
+        future = self._pending.get(request_id)
+        expected = self._from.get(request_id)
+        if expected is not None and topic_name != expected:
+            # Whoever listens on the request's topic learns its id; only the asked one's own
+            # topic is believed (a forged "ok" must not pass for the drone's answer: issue 12).
+            self.foreign += 1
+            return
         if future is not None and not future.done():
             future.set_result(data)
 
@@ -61,8 +70,10 @@ class Requester:
         message: BaseModel | dict[str, Any],
         *,
         timeout_s: float = 10.0,
+        reply_topic: str | None = None,
     ) -> dict[str, Any]:
-        """Publish ``message`` with a fresh ``request_id`` and return the matching answer."""
+        """Publish ``message`` with a fresh ``request_id`` and return the matching answer (only
+        one that came on ``reply_topic``, when given)."""
         await self._ensure(reply_pattern)
         data = (
             message.model_dump(mode="json", exclude_none=True)
@@ -73,6 +84,8 @@ class Requester:
         data["request_id"] = request_id
         future: asyncio.Future[dict[str, Any]] = asyncio.get_running_loop().create_future()
         self._pending[request_id] = future
+        if reply_topic is not None:
+            self._from[request_id] = reply_topic
         try:
             await self.client.publish(topic_name, data, qos=QOS_COMMAND, timeout_s=timeout_s)
             async with asyncio.timeout(timeout_s):
@@ -83,3 +96,4 @@ class Requester:
             ) from exc
         finally:
             self._pending.pop(request_id, None)
+            self._from.pop(request_id, None)

@@ -8,7 +8,7 @@ from typing import Any
 from pydantic import Field
 
 from dronefleet.messaging.commands import AlarmLevel
-from dronefleet.messaging.common import Message, Position, wall_time
+from dronefleet.messaging.common import DroneId, Message, Position, wall_time
 
 
 class FlightState(StrEnum):
@@ -50,10 +50,12 @@ class FlightParams(Message):
 class Heartbeat(Message):
     """Sent every 5 s (vehicle time) on ``<id>/heartbeats/out``."""
 
-    drone_id: str
+    drone_id: DroneId
     timestamp: float = Field(default_factory=wall_time)
     vehicle_time_s: float
-    interval_s: float = 5.0
+    interval_s: float = Field(
+        default=5.0, gt=0, le=3600, description="vehicle seconds to the next heartbeat"
+    )
     position: Position
     home: Position | None = None
     battery: BatteryStatus
@@ -70,7 +72,7 @@ class Heartbeat(Message):
 class Alarm(Message):
     """Sent once per crossing on ``<id>/alarms/out``."""
 
-    drone_id: str
+    drone_id: DroneId
     level: AlarmLevel
     message: str = ""
     position: Position
@@ -85,7 +87,7 @@ class Alarm(Message):
 class Telemetry(Message):
     """Numeric flight data on ``<id>/telemetry/out`` (a flat field map, ready for a time series)."""
 
-    drone_id: str
+    drone_id: DroneId
     timestamp: float = Field(default_factory=wall_time)
     vehicle_time_s: float
     fields: dict[str, float]

@@ -173,7 +173,12 @@ async def test_garbage_on_the_telemetry_topic_does_not_stop_the_fail_safe(
     ):
         await ground.publish(TELEMETRY_OUT, junk)
     await ground.publish(
-        TELEMETRY_OUT, {"fields": {"battery_pct": 5, "lat": 91, "lon": 0, "alt_m": 0}}
+        TELEMETRY_OUT,
+        {
+            "drone_id": DRONE,
+            "vehicle_time_s": 0.5,
+            "fields": {"battery_pct": 5, "lat": 91, "lon": 0, "alt_m": 0},
+        },
     )
     await vehicle.battery(10.0)
     (alarm,) = await alarms.take(1)

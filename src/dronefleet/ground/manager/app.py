@@ -5,6 +5,7 @@ from fastapi import FastAPI
 from dronefleet import __version__
 from dronefleet.ground.manager import admin, control, drones, errors, stream, telemetry, web
 from dronefleet.ground.manager.context import ManagerContext
+from dronefleet.ground.manager.hardening import Hardening
 from dronefleet.ground.manager.schemas import Health
 
 DESCRIPTION = """
@@ -27,6 +28,7 @@ def create_app(ctx: ManagerContext) -> FastAPI:
 
     for module in (drones, control, telemetry, admin, stream, planner_api, web):
         app.include_router(module.router)
+    app.add_middleware(Hardening)
 
     @app.get(
         "/api/v1/health",

@@ -16,6 +16,7 @@ from enum import IntEnum
 from starlette.requests import HTTPConnection
 
 from dronefleet.ground.manager.errors import ApiError
+from dronefleet.ground.manager.hardening import AuthThrottle
 from dronefleet.ground.state import StateStore
 
 
@@ -63,6 +64,7 @@ class TokenBook:
     def __init__(self, state: StateStore) -> None:
         self.state = state
         self._cache: dict[str, Principal] = {}
+        self.throttle = AuthThrottle()
 
     async def issue(self, name: str, role: Role, token: str | None = None) -> str:
         """Create (or replace) the token called ``name``; return the token itself."""
@@ -85,8 +87,12 @@ class TokenBook:
         digest = hash_token(token)
         principal = self._cache.get(digest)
         if principal is None:
+            client = AuthThrottle.client_of(conn.scope)
+            if self.throttle.blocked(client):
+                raise ApiError(429, "too many unknown API tokens from this client; wait a minute")
             found = await self.state.find_token(digest)
             if found is None:
+                self.throttle.failed(client)
                 raise ApiError(401, "unknown API token")
             principal = Principal(found[0], Role.parse(found[1]))
             self._cache[digest] = principal

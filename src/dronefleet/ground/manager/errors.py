@@ -61,8 +61,10 @@ _WHY = {
     404: "not found",
     405: "the command changes the drone: use POST",
     409: "conflicts with the current state (drone lost, busy, refused)",
+    413: "request body too large (ground/manager/hardening.py)",
     415: "unsupported body type",
     422: "invalid input; `detail` says why",
+    429: "too many failed authentications from this client; wait a minute",
     503: "a service it needs is unavailable",
     504: "no answer in time; a command may still reach the drone",
 }
@@ -74,12 +76,15 @@ def answers(*statuses: int) -> dict[int | str, dict[str, Any]]:
     FastAPI would otherwise publish its own 422 schema (``detail`` a list), which is not what
     :func:`install` answers.
     """
+    # Every route behind a token may also refuse a client that failed too often (429) and a
+    # body too large (413), before the route runs.
+    guarded = (*statuses, 413, 429) if 401 in statuses else statuses
     return {
         status: {
             "model": ValidationErrorBody if status == 422 else ErrorBody,
             "description": _WHY.get(status, "error"),
         }
-        for status in statuses
+        for status in guarded
     }
 
 

@@ -94,6 +94,7 @@ class DroneGateway:
                 any_drone(channel),
                 message,
                 timeout_s=timeout,
+                reply_topic=topic(drone_id, channel, Direction.OUT),
             )
         except (RequestTimeout, BrokerUnavailable) as exc:
             raise ApiError(

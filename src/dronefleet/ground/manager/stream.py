@@ -11,6 +11,7 @@ import contextlib
 import logging
 from dataclasses import dataclass, field
 from typing import Any
+from urllib.parse import urlsplit
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
@@ -119,6 +120,12 @@ router = APIRouter(tags=["stream"])
 @router.websocket("/api/v1/stream")
 async def stream(websocket: WebSocket) -> None:
     ctx = ctx_of(websocket)
+    origin = websocket.headers.get("origin")
+    if origin is not None and urlsplit(origin).netloc != websocket.headers.get("host"):
+        # A browser page from another site must not read the stream with the operator's token
+        # (cross-site WebSocket hijacking); clients that are not browsers send no Origin.
+        await websocket.close(code=4403, reason=f"origin {origin} is not this server")
+        return
     try:
         await ctx.tokens.principal(websocket, Role.VIEWER)
     except ApiError as exc:

@@ -66,16 +66,28 @@ export function stateColor(drone) {
   return STATE_COLORS[drone.state] || "#374151";
 }
 
-/** An arrow pointing along `headingDeg`, coloured by state. */
+const SVG = "http://www.w3.org/2000/svg";
+
+/** An arrow pointing along `headingDeg`, coloured by state. Built from DOM nodes, never from an
+ * HTML string: everything in `drone` came from the broker and is untrusted (issue 12). */
 export function droneIcon(drone) {
-  const color = stateColor(drone);
+  const lost = drone.status === "lost";
   const heading = Number.isFinite(drone.heading_deg) ? drone.heading_deg : 0;
-  const lost = drone.status === "lost" ? " lost" : "";
-  const html = `<div class="drone-icon${lost}" style="transform: rotate(${heading}deg)">
-    <svg viewBox="0 0 24 24" width="24" height="24" aria-hidden="true">
-      <path d="M12 2 L20 21 L12 16 L4 21 Z" fill="${color}" stroke="#fff" stroke-width="1.5"/></svg></div>
-    <span class="drone-label">${drone.drone_id}${drone.status === "lost" ? " (lost)" : ""}</span>`;
-  return L.divIcon({ html, className: "drone-marker", iconSize: [24, 24], iconAnchor: [12, 12] });
+  const root = document.createElement("div");
+  const arrow = document.createElement("div");
+  arrow.className = lost ? "drone-icon lost" : "drone-icon";
+  arrow.style.transform = `rotate(${heading}deg)`;
+  const svg = document.createElementNS(SVG, "svg");
+  for (const [k, v] of Object.entries({ viewBox: "0 0 24 24", width: "24", height: "24", "aria-hidden": "true" })) svg.setAttribute(k, v);
+  const path = document.createElementNS(SVG, "path");
+  for (const [k, v] of Object.entries({ d: "M12 2 L20 21 L12 16 L4 21 Z", fill: stateColor(drone), stroke: "#fff", "stroke-width": "1.5" })) path.setAttribute(k, v);
+  svg.appendChild(path);
+  arrow.appendChild(svg);
+  const label = document.createElement("span");
+  label.className = "drone-label";
+  label.textContent = `${drone.drone_id}${lost ? " (lost)" : ""}`;
+  root.append(arrow, label);
+  return L.divIcon({ html: root, className: "drone-marker", iconSize: [24, 24], iconAnchor: [12, 12] });
 }
 
 export function latLngOf(position) {

@@ -1,0 +1,170 @@
+"""HTTP hardening in front of every route (issue 12): body limits, security headers, auth throttle.
+
+- **Bodies are bounded before they are read.** A body without any credential is refused (401) and
+  one over :data:`MAX_BODY_BYTES` (413) before a byte is parsed: by its Content-Length, or while it
+  streams in when it has none. The largest legitimate body, a 10,000-step mission, is ~1 MB.
+- **Headers a browser obeys**: a strict Content-Security-Policy for the web app (scripts only
+  from this server; no inline script; styles inline only, as Leaflet positions with them; map
+  tiles from any https server the operator configures), framing refused, no MIME sniffing, no
+  referrer. The OpenAPI pages (``/docs``, ``/redoc``) load FastAPI's own CDN assets and get a
+  policy that allows exactly those.
+- **Failed authentication is throttled per client** (:class:`AuthThrottle`, used by
+  ``auth.TokenBook``): after :data:`MAX_FAILURES` unknown tokens in :data:`WINDOW_S` seconds, a
+  client's new tokens are not looked up but answered 429 until the window has passed (a token
+  already in use keeps working, so guessing costs an attacker and not the operator).
+
+A plain ASGI middleware rather than Starlette's ``BaseHTTPMiddleware``, so a refused body is never
+buffered and WebSockets pass untouched.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Awaitable, Callable, MutableMapping
+from typing import Any
+
+import orjson
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+MAX_BODY_BYTES = 4 * 1024 * 1024
+MAX_FAILURES = 20
+WINDOW_S = 60.0
+
+APP_POLICY = (
+    "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+    "img-src 'self' data: blob: https:; connect-src 'self' ws: wss:; font-src 'self'; "
+    "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'"
+)
+DOCS_POLICY = (
+    "default-src 'self'; script-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; "
+    "style-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net https://fonts.googleapis.com; "
+    "img-src 'self' data: https:; font-src 'self' https://fonts.gstatic.com; "
+    "connect-src 'self'; object-src 'none'; frame-ancestors 'none'"
+)
+_HEADERS = [
+    (b"x-frame-options", b"DENY"),
+    (b"x-content-type-options", b"nosniff"),
+    (b"referrer-policy", b"no-referrer"),
+]
+_CREDENTIALS = (b"authorization", b"x-api-token")
+
+
+class BodyTooLarge(Exception):
+    pass
+
+
+class AuthThrottle:
+    """Failed authentications per client address in a sliding window."""
+
+    def __init__(self, max_failures: int = MAX_FAILURES, window_s: float = WINDOW_S) -> None:
+        self.max_failures, self.window_s = max_failures, window_s
+        self._failures: dict[str, deque[float]] = {}
+
+    def _recent(self, client: str, now: float) -> deque[float]:
+        times = self._failures.setdefault(client, deque())
+        while times and now - times[0] > self.window_s:
+            times.popleft()
+        return times
+
+    @staticmethod
+    def client_of(scope: Scope) -> str:
+        client = scope.get("client")
+        return str(client[0]) if client else "unknown"
+
+    def blocked(self, client: str) -> bool:
+        now = time.monotonic()
+        blocked = len(self._recent(client, now)) >= self.max_failures
+        if not self._failures[client]:
+            del self._failures[client]
+        return blocked
+
+    def failed(self, client: str) -> None:
+        now = time.monotonic()
+        self._recent(client, now).append(now)
+        if len(self._failures) > 10_000:  # a flood of addresses must not grow memory unbounded
+            self._failures.pop(next(iter(self._failures)))
+
+
+class Hardening:
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers") or [])
+        length = _content_length(headers)
+        has_body = (length is not None and length > 0) or b"transfer-encoding" in headers
+        token_sent = any(h in headers for h in _CREDENTIALS) or b"token=" in scope.get(
+            "query_string", b""
+        )
+        if has_body and not token_sent:
+            await _refuse(send, 401, "missing API token: send 'Authorization: Bearer <token>'")
+            return
+        if length is not None and length > MAX_BODY_BYTES:
+            await _refuse(send, 413, f"request body over {MAX_BODY_BYTES} bytes")
+            return
+        await self._serve(scope, receive, send)
+
+    async def _serve(self, scope: Scope, receive: Receive, send: Send) -> None:
+        path = scope.get("path", "")
+        policy = DOCS_POLICY if path in ("/docs", "/redoc") else APP_POLICY
+        seen = 0
+        started = False
+
+        async def bounded_receive() -> Message:
+            nonlocal seen
+            message = await receive()
+            if message["type"] == "http.request":
+                seen += len(message.get("body", b""))
+                if seen > MAX_BODY_BYTES:
+                    raise BodyTooLarge
+            return message
+
+        async def send_with_headers(message: Message) -> None:
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+                message["headers"] = [
+                    *message.get("headers", []),
+                    *_HEADERS,
+                    (b"content-security-policy", policy.encode()),
+                ]
+            await send(message)
+
+        try:
+            await self.app(scope, bounded_receive, send_with_headers)
+        except BodyTooLarge:
+            if not started:
+                await _refuse(send, 413, f"request body over {MAX_BODY_BYTES} bytes")
+
+
+def _content_length(headers: dict[bytes, bytes]) -> int | None:
+    raw = headers.get(b"content-length")
+    try:
+        return int(raw) if raw is not None else None
+    except ValueError:
+        return None
+
+
+async def _refuse(send: Send, status: int, detail: str) -> None:
+    body = orjson.dumps({"detail": detail})
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode()),
+                *_HEADERS,
+            ],
+        }
+    )
+    await send({"type": "http.response.body", "body": body})
