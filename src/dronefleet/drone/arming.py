@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from dronefleet.vehicle.base import FcError, FlightController
+from dronefleet.vehicle.base import FcRefused, FlightController
 
 
 class ArmingSwitch:
@@ -37,7 +37,7 @@ class ArmingSwitch:
         if not state.armed and not state.arming:
             return {"armed": False, "note": "already disarmed"}
         if state.in_air and not force:
-            raise FcError(
+            raise FcRefused(
                 "refusing to disarm in flight: the motors would stop; land first, "
                 "or send force=true to disarm anyway"
             )

@@ -22,6 +22,7 @@ from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.draw import FlightDraw
 from dronefleet.drone.navigation import NavigationProcessor, Tolerance
 from dronefleet.drone.state import flight_state, position_of
+from dronefleet.errors import Failed
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode, decode_object
@@ -39,7 +40,7 @@ _throttle = LogThrottle(
 )  # one line per kind per 10 s: junk on the broker must not flood the log
 
 
-class CommandError(Exception):
+class CommandError(Failed):
     """A command that could not be carried out; the message is the reason sent back."""
 
 

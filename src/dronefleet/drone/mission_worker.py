@@ -21,6 +21,7 @@ from dronefleet.drone import onboard
 from dronefleet.drone.controller import CommandError, DroneController
 from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.state import position_of
+from dronefleet.errors import Failed
 from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError, decode, decode_object
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
@@ -53,7 +54,7 @@ REPORTS_PER_MISSION = MAX_STEPS + 16
 REPLAY_GAP_S = 2.0
 
 
-class StepFailed(Exception):
+class StepFailed(Failed):
     pass
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from dronefleet.clock import wait_until
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
-from dronefleet.vehicle.base import FcError, FlightController
+from dronefleet.vehicle.base import FcError, FcRefused, FlightController
 
 log = logging.getLogger(__name__)
 
@@ -207,9 +207,11 @@ class NavigationProcessor:
 
     def _check_height(self, height_m: float) -> None:
         if height_m < 0:
-            raise FcError(f"target {height_m:.1f} m is below home; targets must be at or above it")
+            raise FcRefused(
+                f"target {height_m:.1f} m is below home; targets must be at or above it"
+            )
         if height_m > self.max_altitude_m:
-            raise FcError(
+            raise FcRefused(
                 f"target {height_m:.1f} m above home exceeds the {self.max_altitude_m:g} m limit"
             )
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from dronefleet.errors import Failed
 from dronefleet.experiments.harness import ORIGIN, Harness
 from dronefleet.experiments.report import Result
 from dronefleet.geo.ned import ned_to_lla
@@ -282,7 +283,7 @@ async def collab(h: Harness, strategy: Strategy) -> Result:
 SCENARIOS = {"panic": panic, "survey": survey, "replacement": replacement, "collab": collab}
 
 
-class ExperimentFailed(RuntimeError):
+class ExperimentFailed(Failed, RuntimeError):
     """An experiment that did not finish, with the scenario's state in one line."""
 
 

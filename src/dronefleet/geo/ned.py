@@ -21,6 +21,8 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+import numpy as np
+
 from dronefleet.geo.types import LLA, NED
 
 #: WGS84 semi-major axis (m) and first eccentricity squared.
@@ -99,6 +101,39 @@ class LocalFrame:
             dlon += err_e / (n_rad * cos_lat) / _DEG
         lat = max(-90.0, min(90.0, lat))
         return LLA(lat, _wrap_lon(self.home.lon + dlon), self.home.alt_m - ned.d)
+
+    def horizontal_many(self, lat_deg: np.ndarray, dlon_deg: np.ndarray) -> np.ndarray:
+        """:meth:`_horizontal` of arrays of points at once: rows (north, east)."""
+        lat, dlon = np.radians(lat_deg), np.radians(dlon_deg)
+        sin_lat, cos_lat = np.sin(lat), np.cos(lat)
+        h = self.home.alt_m
+        n_rad = WGS84_A / np.sqrt(1.0 - WGS84_E2 * sin_lat * sin_lat)
+        r = (n_rad + h) * cos_lat
+        dx = r * np.cos(dlon) - self._x0
+        dz = (n_rad * (1.0 - WGS84_E2) + h) * sin_lat - self._z0
+        return np.vstack((-self._sin_lat0 * dx + self._cos_lat0 * dz, r * np.sin(dlon)))
+
+    def to_lla_many(self, north: np.ndarray, east: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`to_lla` of arrays of points at once (a plan's thousands of waypoints): the
+        same Newton steps, on every point until all are within tolerance; (lat, lon) in
+        degrees, at the home altitude."""
+        lat = self.home.lat + north / self._m0 / _DEG
+        dlon = east / (self._n0 * max(self._cos_lat0, 1e-12)) / _DEG
+        for _ in range(_INVERSE_STEPS):
+            got_n, got_e = self.horizontal_many(lat, dlon)
+            err_n, err_e = north - got_n, east - got_e
+            if np.all(np.abs(err_n) < _INVERSE_TOLERANCE_M) and np.all(
+                np.abs(err_e) < _INVERSE_TOLERANCE_M
+            ):
+                break
+            sin_lat = np.sin(np.radians(lat))
+            w = np.sqrt(1.0 - WGS84_E2 * sin_lat * sin_lat)
+            m = WGS84_A * (1.0 - WGS84_E2) / (w * w * w) + self.home.alt_m
+            n_rad = WGS84_A / w + self.home.alt_m
+            cos_lat = np.maximum(np.cos(np.radians(lat)), 1e-12)
+            lat = lat + err_n / m / _DEG
+            dlon = dlon + err_e / (n_rad * cos_lat) / _DEG
+        return np.clip(lat, -90.0, 90.0), (self.home.lon + dlon + 180.0) % 360.0 - 180.0
 
 
 @lru_cache(maxsize=256)

@@ -21,6 +21,7 @@ import secrets
 from typing import Any
 
 from dronefleet import clock
+from dronefleet.errors import Conflict
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import BrokerClient
 
@@ -33,7 +34,7 @@ STALE_AFTER_S = 2.5 * PRESENCE_S
 RETAINED_WAIT_S = 0.5
 
 
-class GroundAlreadyRunning(RuntimeError):
+class GroundAlreadyRunning(Conflict, RuntimeError):
     """Another ground is serving this broker."""
 
 

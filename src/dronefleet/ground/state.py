@@ -1,27 +1,30 @@
 """The ground state store (docs/DESIGN.md §7): drones seen, API tokens, the audit log of every
 command.
 
-SQLite in WAL mode, used from one worker thread so the event loop never blocks on disk. The
-Drone Identifier keeps its fleet here so a restart remembers it; the Drone Manager keeps tokens
-(hashed) and the audit log (the seed's logging requirement 3.1.6). Later rooms (the Mission
-Planner) add their own tables through :meth:`StateStore.run`.
+SQLite in WAL mode through aiosqlite (a kept library: one connection on a thread of its own, so
+the event loop never blocks on disk; it replaced our own thread-and-executor wrapper). Each call
+is awaited through ``virtual_loop.held``: on a simulation's virtual loop, time stands still while
+the disk works (aiosqlite's thread is invisible to the loop otherwise, and vehicle seconds would
+pass during a write — a figure that moves with load, issue 9). The Drone
+Identifier keeps its fleet here so a restart remembers it; the Drone Manager keeps tokens (hashed)
+and the audit log (the seed's logging requirement 3.1.6). Later rooms (the Mission Planner) add
+their own tables through :meth:`StateStore.script`, :meth:`write` and :meth:`rows`.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
-import sqlite3
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
+import aiosqlite
 import orjson
 
 from dronefleet.clock import timestamp_s
-
-T = TypeVar("T")
+from dronefleet.virtual_loop import held
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS drones (
@@ -50,107 +53,121 @@ CREATE INDEX IF NOT EXISTS audit_drone ON audit (drone_id, id);
 """
 
 
+async def _roll_back(db: aiosqlite.Connection) -> None:
+    """End a transaction that failed or was cancelled half way. Statements already queued on
+    the connection's thread still run, so the rollback is queued after them, shielded from a
+    second cancellation; with no transaction open it does nothing (sqlite3's rollback)."""
+    with contextlib.suppress(Exception):
+        await held(asyncio.shield(db.rollback()))
+
+
+def _owner_only(path: Path) -> None:
+    """Token hashes and the audit log: the owner's only (SQLite gives its -wal and -shm files
+    the database's mode)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.touch(mode=0o600, exist_ok=True)
+    os.chmod(path, 0o600)
+
+
 class StateStore:
-    """One SQLite file (``:memory:`` for tests), reached through :meth:`run` on its own thread."""
+    """One SQLite file (``:memory:`` for tests)."""
 
     def __init__(self, path: str | Path) -> None:
         self.path = str(path)
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="ground-state")
-        self._db: sqlite3.Connection | None = None
+        self._db: aiosqlite.Connection | None = None
+        self._writing = asyncio.Lock()  # one transaction at a time on the one connection
 
     async def open(self) -> StateStore:
-        await self._call(self._open)
-        return self
-
-    def _open(self) -> None:
         if self.path != ":memory:":
-            Path(self.path).parent.mkdir(parents=True, exist_ok=True)
-            # Token hashes and the audit log: the owner's only (SQLite gives its -wal and -shm
-            # files the database's mode).
-            Path(self.path).touch(mode=0o600, exist_ok=True)
-            os.chmod(self.path, 0o600)
-        db = sqlite3.connect(self.path, isolation_level=None)
-        db.execute("PRAGMA journal_mode=WAL")
-        db.execute("PRAGMA synchronous=NORMAL")
-        db.executescript(_SCHEMA)
+            await asyncio.to_thread(_owner_only, Path(self.path))
+        db = await held(aiosqlite.connect(self.path, isolation_level=None))
+        await held(db.execute("PRAGMA journal_mode=WAL"))
+        await held(db.execute("PRAGMA synchronous=NORMAL"))
+        await held(db.executescript(_SCHEMA))
         self._db = db
+        return self
 
     async def close(self) -> None:
         if self._db is not None:
-            await self._call(self._db.close)
-            self._db = None
-        self._executor.shutdown(wait=True)
+            db, self._db = self._db, None
+            await held(db.close())
 
-    async def _call(self, fn: Callable[..., T], *args: Any) -> T:
-        return await asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
+    @property
+    def db(self) -> aiosqlite.Connection:
+        if self._db is None:
+            raise RuntimeError("state store is not open")
+        return self._db
 
-    async def run(self, fn: Callable[[sqlite3.Connection], T]) -> T:
-        """Run ``fn(connection)`` on the store's thread (for tables other rooms add)."""
+    async def script(self, sql: str) -> None:
+        """Run a script (a room's ``CREATE TABLE IF NOT EXISTS ...``)."""
+        async with self._writing:
+            await held(self.db.executescript(sql))
 
-        def call() -> T:
-            assert self._db is not None, "state store is not open"
-            return fn(self._db)
+    async def write(self, *statements: tuple[str, Sequence[Any]]) -> list[int]:
+        """Run ``(sql, args)`` statements in one transaction; each one's row count."""
+        async with self._writing:
+            try:
+                await held(self.db.execute("BEGIN"))
+                counts = [(await held(self.db.execute(q, args))).rowcount for q, args in statements]
+                await held(self.db.execute("COMMIT"))
+            except BaseException:
+                await _roll_back(self.db)
+                raise
+            return counts
 
-        return await self._call(call)
+    async def write_many(self, sql: str, rows: Iterable[Sequence[Any]]) -> None:
+        async with self._writing:
+            try:
+                await held(self.db.execute("BEGIN"))
+                await held(self.db.executemany(sql, rows))
+                await held(self.db.execute("COMMIT"))
+            except BaseException:
+                await _roll_back(self.db)
+                raise
+
+    async def rows(self, sql: str, args: Sequence[Any] = ()) -> list[Any]:
+        cursor = await held(self.db.execute(sql, args))
+        try:
+            return list(await held(cursor.fetchall()))
+        finally:
+            await held(cursor.close())
 
     # -- drones --------------------------------------------------------------------------------
     async def save_drones(self, records: list[dict[str, Any]]) -> None:
         now = timestamp_s()
         rows = [(r["drone_id"], orjson.dumps(r).decode(), now) for r in records]
-
-        def write(db: sqlite3.Connection) -> None:
-            with db:
-                db.executemany(
-                    "INSERT INTO drones (drone_id, record, updated_at) VALUES (?, ?, ?) "
-                    "ON CONFLICT (drone_id) DO UPDATE SET record = excluded.record, "
-                    "updated_at = excluded.updated_at",
-                    rows,
-                )
-
-        await self.run(write)
+        await self.write_many(
+            "INSERT INTO drones (drone_id, record, updated_at) VALUES (?, ?, ?) "
+            "ON CONFLICT (drone_id) DO UPDATE SET record = excluded.record, "
+            "updated_at = excluded.updated_at",
+            rows,
+        )
 
     async def load_drones(self) -> list[dict[str, Any]]:
-        rows = await self.run(
-            lambda db: db.execute("SELECT record FROM drones ORDER BY drone_id").fetchall()
-        )
+        rows = await self.rows("SELECT record FROM drones ORDER BY drone_id")
         return [orjson.loads(r[0]) for r in rows]
 
     # -- tokens --------------------------------------------------------------------------------
     async def add_token(self, token_hash: str, name: str, role: str) -> None:
-        def write(db: sqlite3.Connection) -> None:
-            with db:
-                db.execute(
-                    "DELETE FROM tokens WHERE name = ? OR token_hash = ?", (name, token_hash)
-                )
-                db.execute(
-                    "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?)",
-                    (token_hash, name, role, timestamp_s()),
-                )
-
-        await self.run(write)
+        await self.write(
+            ("DELETE FROM tokens WHERE name = ? OR token_hash = ?", (name, token_hash)),
+            (
+                "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?)",
+                (token_hash, name, role, timestamp_s()),
+            ),
+        )
 
     async def find_token(self, token_hash: str) -> tuple[str, str] | None:
-        row = await self.run(
-            lambda db: db.execute(
-                "SELECT name, role FROM tokens WHERE token_hash = ?", (token_hash,)
-            ).fetchone()
-        )
-        return (row[0], row[1]) if row else None
+        rows = await self.rows("SELECT name, role FROM tokens WHERE token_hash = ?", (token_hash,))
+        return (rows[0][0], rows[0][1]) if rows else None
 
     async def list_tokens(self) -> list[dict[str, Any]]:
-        rows = await self.run(
-            lambda db: db.execute(
-                "SELECT name, role, created_at FROM tokens ORDER BY created_at"
-            ).fetchall()
-        )
+        rows = await self.rows("SELECT name, role, created_at FROM tokens ORDER BY created_at")
         return [{"name": n, "role": r, "created_at": c} for n, r, c in rows]
 
     async def delete_token(self, name: str) -> bool:
-        def write(db: sqlite3.Connection) -> bool:
-            with db:
-                return db.execute("DELETE FROM tokens WHERE name = ?", (name,)).rowcount > 0
-
-        return await self.run(write)
+        (deleted,) = await self.write(("DELETE FROM tokens WHERE name = ?", (name,)))
+        return deleted > 0
 
     # -- audit log -----------------------------------------------------------------------------
     async def audit(
@@ -175,15 +192,13 @@ class StateStore:
             orjson.dumps(answer, default=str).decode(),
         )
 
-        def write(db: sqlite3.Connection) -> None:
-            with db:
-                db.execute(
-                    "INSERT INTO audit (ts, who, role, drone_id, command, params, status, answer)"
-                    " VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                    row,
-                )
-
-        await self.run(write)
+        await self.write(
+            (
+                "INSERT INTO audit (ts, who, role, drone_id, command, params, status, answer)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                row,
+            )
+        )
 
     async def read_audit(
         self, *, drone_id: str | None = None, limit: int = 100, before_id: int | None = None
@@ -201,7 +216,7 @@ class StateStore:
             sql += " WHERE " + " AND ".join(where)
         sql += " ORDER BY id DESC LIMIT ?"
         args.append(limit)
-        rows = await self.run(lambda db: db.execute(sql, args).fetchall())
+        rows = await self.rows(sql, args)
         keys = ("id", "ts", "who", "role", "drone_id", "command", "params", "status", "answer")
         out = []
         for row in rows:

@@ -24,6 +24,7 @@ import aiomqtt
 from paho.mqtt.matcher import MQTTMatcher
 from pydantic import BaseModel
 
+from dronefleet.errors import Unavailable
 from dronefleet.messaging.codec import encode
 from dronefleet.messaging.log_throttle import LogThrottle, ThrottleFilter
 from dronefleet.messaging.memory import release_freed_memory_soon
@@ -50,7 +51,7 @@ QOS_COMMAND = 1  # commands, missions, progress, alarms
 QOS_STREAM = 0  # heartbeats, telemetry
 
 
-class BrokerUnavailable(ConnectionError):
+class BrokerUnavailable(Unavailable, ConnectionError):
     """The broker could not be reached in time."""
 
 

@@ -7,8 +7,10 @@ from typing import Any
 import orjson
 from pydantic import BaseModel
 
+from dronefleet.errors import InvalidInput
 
-class MessageError(ValueError):
+
+class MessageError(InvalidInput, ValueError):
     """A message that cannot be decoded or does not fit its schema. It is logged and dropped."""
 
 

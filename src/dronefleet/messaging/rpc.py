@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
+from dronefleet.errors import NoAnswer
 from dronefleet.messaging.client import QOS_COMMAND, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
 from dronefleet.messaging.common import new_request_id
@@ -19,7 +20,7 @@ from dronefleet.messaging.common import new_request_id
 log = logging.getLogger(__name__)
 
 
-class RequestTimeout(TimeoutError):
+class RequestTimeout(NoAnswer, TimeoutError):
     """No answer arrived in time."""
 
 

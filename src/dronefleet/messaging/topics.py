@@ -10,6 +10,8 @@ import re
 from dataclasses import dataclass
 from enum import StrEnum
 
+from dronefleet.errors import InvalidInput
+
 
 class Channel(StrEnum):
     CONTROL = "control"
@@ -34,7 +36,7 @@ DRONE_ID_RE = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
 GROUND_PREFIX = "ground"
 
 
-class TopicError(ValueError):
+class TopicError(InvalidInput, ValueError):
     """A topic or drone id that does not fit the seed's scheme."""
 
 

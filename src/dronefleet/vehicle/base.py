@@ -15,11 +15,17 @@ from enum import StrEnum
 from typing import Any, Protocol, runtime_checkable
 
 from dronefleet.clock import Clock
+from dronefleet.errors import Conflict, Failed
 from dronefleet.geo.types import LLA, NED
 
 
-class FcError(RuntimeError):
+class FcError(Failed, RuntimeError):
     """A flight-controller command that was refused or failed; the message says why."""
+
+
+class FcRefused(FcError, Conflict):
+    """A command the vehicle will not take in its state, as a policy (disarm in flight without
+    ``force``, a target above the altitude limit): a refusal, not a failure."""
 
 
 class FlightMode(StrEnum):

@@ -79,3 +79,13 @@ async def test_a_websocket_from_another_sites_page_is_refused(ground):
     host = urlsplit(ground.http_url).netloc
     async with websockets.connect(url, origin=f"http://{host}") as ws:
         assert ws.protocol.state.name == "OPEN"
+
+
+async def test_web_files_are_served_with_their_types_and_revalidated(ground, api):
+    """Starlette's StaticFiles behind /web/ (ground/manager/web.py)."""
+    r = await api.get("/web/js/app.js")
+    assert r.status_code == 200 and "javascript" in r.headers["content-type"]
+    assert r.headers["cache-control"] == "no-cache" and r.headers.get("etag")
+    assert (await api.get("/web/css/app.css")).headers["content-type"].startswith("text/css")
+    for path in ("/web/../pyproject.toml", "/web/%2e%2e/ground/state.py", "/web/nope.js"):
+        assert (await api.get(path)).status_code == 404, path

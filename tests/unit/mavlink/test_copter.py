@@ -10,7 +10,7 @@ from dronefleet.geo.types import LLA, NED
 from dronefleet.protocols.mavlink import items as mi
 from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.camera import SimCamera
-from dronefleet.sim.mavlink.copter import CopterEvents, Refused, SimCopter
+from dronefleet.sim.mavlink.copter import CopterEvents, CommandRefused, SimCopter
 from dronefleet.sim.vehicle import SimVehicle
 
 HOME = LLA(40.63, -8.659, 10.0)
@@ -51,23 +51,23 @@ def run(copter: SimCopter, seconds: float, step: float = 0.05) -> None:
 def test_takeoff_only_in_guided_and_armed():
     copter, _ = make(arming_s=0)
     copter.arm()
-    with pytest.raises(Refused, match="not in GUIDED"):
+    with pytest.raises(CommandRefused, match="not in GUIDED"):
         copter.takeoff(10)
     copter.set_mode(CopterMode.GUIDED)
     copter.takeoff(10)
     run(copter, 8)
     assert copter.vehicle.relative_alt_m == pytest.approx(10, abs=0.05)
-    with pytest.raises(Refused, match="already flying"):
+    with pytest.raises(CommandRefused, match="already flying"):
         copter.takeoff(20)
 
 
 def test_no_arming_in_auto_or_land_and_low_battery_says_why():
     copter, _ = make()
     copter.set_mode(CopterMode.LAND)
-    with pytest.raises(Refused, match="Mode not armable"):
+    with pytest.raises(CommandRefused, match="Mode not armable"):
         copter.arm()
     low, _ = make(initial_charge_pct=2)
-    with pytest.raises(Refused, match=r"^Arm: battery at 2\.0 %"):
+    with pytest.raises(CommandRefused, match=r"^Arm: battery at 2\.0 %"):
         low.arm()
 
 
@@ -114,5 +114,5 @@ def test_auto_flies_the_mission_and_reports_each_item():
 
 def test_auto_needs_a_mission():
     copter, _ = make()
-    with pytest.raises(Refused, match="no mission"):
+    with pytest.raises(CommandRefused, match="no mission"):
         copter.set_mode(CopterMode.AUTO)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from dronefleet.errors import Unavailable
 from dronefleet.vehicle.base import FlightController
 
 BACKENDS = {
@@ -19,7 +20,7 @@ BACKENDS = {
 }
 
 
-class BackendUnavailable(RuntimeError):
+class BackendUnavailable(Unavailable, RuntimeError):
     pass
 
 

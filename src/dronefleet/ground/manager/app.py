@@ -28,6 +28,7 @@ def create_app(ctx: ManagerContext) -> FastAPI:
 
     for module in (drones, control, telemetry, admin, stream, planner_api, web):
         app.include_router(module.router)
+    web.mount(app)
     app.add_middleware(Hardening)
 
     @app.get(

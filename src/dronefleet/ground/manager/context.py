@@ -9,6 +9,7 @@ from starlette.requests import HTTPConnection
 
 from dronefleet.errors import DronefleetError, NoAnswer
 from dronefleet.ground.manager.auth import Principal, Role, TokenBook
+from dronefleet.ground.manager.errors import status_of
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.store import TelemetryStore
@@ -61,12 +62,12 @@ async def audited(
     gateway = ctx_of(request).gateway
     try:
         answer = await call
-    except DronefleetError as exc:
-        await gateway.audit(who, drone_id, command, params, exc.status, exc.body())
-        raise
     except RequestTimeout as exc:
         error = NoAnswer(f"{silent}: {exc}")
-        await gateway.audit(who, drone_id, command, params, error.status, error.body())
+        await gateway.audit(who, drone_id, command, params, status_of(error), error.body())
         raise error from exc
+    except DronefleetError as exc:
+        await gateway.audit(who, drone_id, command, params, status_of(exc), exc.body())
+        raise
     await gateway.audit(who, drone_id, command, params, 200, recorded(answer))
     return answer

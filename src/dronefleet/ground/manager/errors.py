@@ -22,7 +22,14 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from dronefleet.errors import DronefleetError
+from dronefleet.errors import (
+    Conflict,
+    DronefleetError,
+    InvalidInput,
+    NoAnswer,
+    NotFound,
+    Unavailable,
+)
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +40,23 @@ class ApiError(DronefleetError):
     def __init__(self, status: int, detail: str, /, **extra: Any) -> None:
         super().__init__(detail, **extra)
         self.status = status
+
+
+#: The one place domain errors become HTTP statuses (docs/DESIGN.md §8): by their kind.
+STATUS: dict[type[DronefleetError], int] = {
+    InvalidInput: 422,
+    NotFound: 404,
+    Conflict: 409,
+    Unavailable: 503,
+    NoAnswer: 504,
+}
+
+
+def status_of(exc: DronefleetError) -> int:
+    """The HTTP status ``exc`` is answered with; 500 for a kind with none (a bug if it escapes)."""
+    if isinstance(exc, ApiError):
+        return exc.status
+    return next((STATUS[k] for k in type(exc).__mro__ if k in STATUS), 500)
 
 
 # -- what the OpenAPI schema says about errors ---------------------------------------------------
@@ -138,10 +162,13 @@ def error_body(status: int, body: dict[str, Any]) -> dict[str, Any]:
 
 
 def install(app: FastAPI) -> None:
-    # The one mapping of domain errors to HTTP: each class carries its status.
+    # The one mapping of domain errors to HTTP: STATUS, by the error's kind.
     @app.exception_handler(DronefleetError)
     async def _refused(request: Request, exc: DronefleetError) -> JSONResponse:
-        return JSONResponse(error_body(exc.status, exc.body()), status_code=exc.status)
+        status = status_of(exc)
+        if status == 500:
+            log.error("unmapped error on %s", request.url.path, exc_info=exc)
+        return JSONResponse(error_body(status, exc.body()), status_code=status)
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:

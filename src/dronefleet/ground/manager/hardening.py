@@ -26,6 +26,8 @@ from typing import Any
 
 import orjson
 
+from dronefleet.errors import InvalidInput
+
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
 Receive = Callable[[], Awaitable[Message]]
@@ -55,8 +57,8 @@ _HEADERS = [
 _CREDENTIALS = (b"authorization", b"x-api-token")
 
 
-class BodyTooLarge(Exception):
-    pass
+class BodyTooLarge(InvalidInput):
+    """A body that grew past the limit while it was read."""
 
 
 class AuthThrottle:
@@ -125,7 +127,7 @@ class Hardening:
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
                 if seen > MAX_BODY_BYTES:
-                    raise BodyTooLarge
+                    raise BodyTooLarge(f"request body over {MAX_BODY_BYTES} bytes")
             return message
 
         async def send_with_headers(message: Message) -> None:

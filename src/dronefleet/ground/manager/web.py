@@ -5,54 +5,69 @@ libraries (Leaflet, Chart.js) are copied from npm into ``web/vendor/`` by ``scri
 ``/api/v1/web/config`` tells the pages which map tiles to use (none: an offline grid).
 """
 
+import mimetypes
 from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, FastAPI, Request
 from fastapi.responses import FileResponse, RedirectResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.responses import Response
+from starlette.staticfiles import StaticFiles
+from starlette.types import Scope
 
 from dronefleet.ground.manager.context import Viewer
 from dronefleet.ground.manager.errors import ApiError, answers
 from dronefleet.ground.manager.schemas import Me, WebConfig
 
 WEB_ROOT = Path(__file__).resolve().parents[2] / "web"
-_TYPES = {
-    ".html": "text/html; charset=utf-8",
-    ".js": "text/javascript; charset=utf-8",
-    ".mjs": "text/javascript; charset=utf-8",
-    ".css": "text/css; charset=utf-8",
-    ".svg": "image/svg+xml",
-    ".png": "image/png",
-    ".json": "application/json",
-}
+# Module scripts are refused by browsers unless served as JavaScript; the system's MIME table
+# may not know .mjs, and Python 3.11's says application/javascript for .js (both work).
+mimetypes.add_type("text/javascript", ".mjs")
+mimetypes.add_type("text/css", ".css")
+
+
+class WebFiles(StaticFiles):
+    """Starlette's static files (path checks, NUL bytes, ETag, HEAD, ranges: a kept library
+    rather than our own file server), revalidated on every load so a new version shows at once,
+    and a 404 that says how to get the vendored libraries."""
+
+    def file_response(self, *args: Any, **kwargs: Any) -> Response:
+        response = super().file_response(*args, **kwargs)
+        response.headers["Cache-Control"] = "no-cache"
+        return response
+
+    async def get_response(self, path: str, scope: Scope) -> Response:
+        try:
+            return await super().get_response(path, scope)
+        except StarletteHTTPException as exc:
+            if exc.status_code != 404:
+                raise
+            hint = " (run `bash scripts/web-deps.sh`)" if path.startswith("vendor/") else ""
+            raise ApiError(404, f"no web file {path!r}{hint}") from None
+
+
+def mount(app: FastAPI) -> None:
+    """Serve ``dronefleet/web`` under ``/web/`` (not in the OpenAPI: files, not operations)."""
+    app.mount("/web", WebFiles(directory=WEB_ROOT, check_dir=False), name="web")
+
 
 router = APIRouter(tags=["web"])
 
 
-def _file(relative: str) -> FileResponse:
-    # A NUL cannot be in a file name; the OS calls would refuse it with a ValueError (a 500).
-    path = WEB_ROOT if "\x00" in relative else (WEB_ROOT / relative).resolve()
-    if not path.is_relative_to(WEB_ROOT) or not path.is_file():
-        hint = " (run `bash scripts/web-deps.sh`)" if relative.startswith("vendor/") else ""
-        raise ApiError(404, f"no web file {relative!r}{hint}")
-    media = _TYPES.get(path.suffix, "application/octet-stream")
-    return FileResponse(path, media_type=media, headers={"Cache-Control": "no-cache"})
-
-
 @router.get("/", include_in_schema=False)
 async def index() -> FileResponse:
-    return _file("index.html")
+    return FileResponse(
+        WEB_ROOT / "index.html",
+        media_type="text/html; charset=utf-8",
+        headers={"Cache-Control": "no-cache"},
+    )
 
 
 @router.get("/call", include_in_schema=False)
 async def call_page() -> RedirectResponse:
     """The phone page's short address: the seed's panic button."""
     return RedirectResponse("/#/call")
-
-
-@router.get("/web/{relative:path}", include_in_schema=False)
-async def static(relative: str) -> FileResponse:
-    return _file(relative)
 
 
 @router.get(

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from dronefleet.geo.ned import lla_to_ned
+from dronefleet.geo.ned import lla_to_ned, local_frame
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner.coverage.plan import CoveragePlan
 from dronefleet.ground.planner.estimate import DEFAULT_MODEL, VehicleModel, estimate
@@ -120,16 +120,22 @@ def _route(
     if not waypoints:
         raise ValueError("there are no waypoints to share")
     ref = LLA(waypoints[0].lat, waypoints[0].lon)
-    xy = np.array([(n.e, n.n) for n in (lla_to_ned(LLA(p.lat, p.lon), ref) for p in waypoints)])
+    lat = np.array([p.lat for p in waypoints], dtype=float)
+    lon = np.array([p.lon for p in waypoints], dtype=float)
+    north, east = local_frame(ref).horizontal_many(lat, (lon - ref.lon + 180.0) % 360.0 - 180.0)
+    xy = np.column_stack((east, north))
     start = LLA(ref.lat, ref.lon, ref.alt_m + altitude)
     est = estimate([s for u in units for s in u], start, ref, airborne=True, model=model)
-    n = len(units)
-    leg, hold, leg_mah, hold_mah, k = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), 0
-    for i, unit in enumerate(units):
-        leg[i], leg_mah[i] = sum(est.per_step[k : k + 2]), sum(est.per_step_mah[k : k + 2])
-        hold[i] = sum(est.per_step[k + 2 : k + len(unit)])
-        hold_mah[i] = sum(est.per_step_mah[k + 2 : k + len(unit)])
-        k += len(unit)
+    # Per unit: its first two steps (navigate, wait_for_flight) are the leg, the rest the hold.
+    lengths = np.array([len(u) for u in units])
+    first = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+    is_leg = np.zeros(int(lengths.sum()), dtype=bool)
+    is_leg[first] = is_leg[first + 1] = True
+    secs, mah = np.asarray(est.per_step), np.asarray(est.per_step_mah)
+    leg = np.add.reduceat(np.where(is_leg, secs, 0.0), first)
+    hold = np.add.reduceat(np.where(is_leg, 0.0, secs), first)
+    leg_mah = np.add.reduceat(np.where(is_leg, mah, 0.0), first)
+    hold_mah = np.add.reduceat(np.where(is_leg, 0.0, mah), first)
     leg[0] = leg_mah[0] = 0.0
     return _Route(xy, leg, hold, leg_mah, hold_mah, starts, altitude, ref)
 

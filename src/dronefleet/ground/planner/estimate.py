@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
-from dronefleet.ground.planner.estimate_units import fly_pair
+from dronefleet.ground.planner.estimate_units import fly_unit, targets, unit_at
 from dronefleet.vehicle.battery import Battery
 from dronefleet.vehicle.kinematics import FlightLimits, Kinematics
 
@@ -401,16 +401,17 @@ def estimate(
         state.armed = True  # armed by someone else: do not charge arming it never asked for
     per_step: list[float] = []
     per_step_mah: list[float] = []
-    cache: dict[tuple, tuple] = {}  # repeated legs, flown once (estimate_units.py)
+    cache: dict[tuple, tuple] = {}  # repeated units, flown once (estimate_units.py)
+    ned = targets(steps, home)
     i = 0
     while i < len(steps):
         step = steps[i]
-        wait = steps[i + 1] if i + 1 < len(steps) else None
-        if step.get("command") == "navigate" and wait and wait.get("command") == "wait_for_flight":
-            d1, c1, d2, c2 = fly_pair(state, step, wait, home, cache)
-            per_step += [d1, d2]
-            per_step_mah += [c1 / 3.6, c2 / 3.6]
-            i += 2
+        unit = unit_at(steps, i)
+        if unit is not None:
+            for duration, charge in fly_unit(state, ned[i], unit, home, cache):
+                per_step.append(duration)
+                per_step_mah.append(charge / 3.6)
+            i += len(unit)
             continue
         before = state.charge_as
         per_step.append(state.run(step, home))

@@ -6,7 +6,6 @@ the records are reloaded and tracking carries on.
 
 from __future__ import annotations
 
-import sqlite3
 from typing import Any
 
 import orjson
@@ -35,46 +34,36 @@ class MissionStore:
         self.state = state
 
     async def open(self) -> MissionStore:
-        await self.state.run(lambda db: db.executescript(_SCHEMA))
+        await self.state.script(_SCHEMA)
         return self
 
     async def save(self, record: MissionRecord) -> None:
         blob = orjson.dumps(record.model_dump(mode="json"))
-
-        def write(db: sqlite3.Connection) -> None:
-            db.execute(
+        await self.state.write(
+            (
                 "INSERT INTO missions (mission_id, state, record, updated_at) VALUES (?, ?, ?, ?) "
                 "ON CONFLICT(mission_id) DO UPDATE SET state=excluded.state, "
                 "record=excluded.record, updated_at=excluded.updated_at",
                 (record.mission_id, record.state.value, blob, timestamp_s()),
             )
-            db.commit()
-
-        await self.state.run(write)
+        )
 
     async def load_all(self) -> list[MissionRecord]:
-        rows = await self.state.run(
-            lambda db: db.execute("SELECT record FROM missions ORDER BY updated_at").fetchall()
-        )
+        rows = await self.state.rows("SELECT record FROM missions ORDER BY updated_at")
         return [MissionRecord.model_validate(orjson.loads(r[0])) for r in rows]
 
     async def save_log(self, mission_id: str, log: dict[str, Any]) -> None:
         blob = orjson.dumps(log)
-
-        def write(db: sqlite3.Connection) -> None:
-            db.execute(
+        await self.state.write(
+            (
                 "INSERT OR REPLACE INTO mission_logs (mission_id, log, written_at) "
                 "VALUES (?, ?, ?)",
                 (mission_id, blob, timestamp_s()),
             )
-            db.commit()
-
-        await self.state.run(write)
+        )
 
     async def load_log(self, mission_id: str) -> dict[str, Any] | None:
-        row = await self.state.run(
-            lambda db: db.execute(
-                "SELECT log FROM mission_logs WHERE mission_id = ?", (mission_id,)
-            ).fetchone()
+        rows = await self.state.rows(
+            "SELECT log FROM mission_logs WHERE mission_id = ?", (mission_id,)
         )
-        return orjson.loads(row[0]) if row else None
+        return orjson.loads(rows[0][0]) if rows else None

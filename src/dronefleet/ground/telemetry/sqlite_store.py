@@ -1,18 +1,18 @@
 """SQLite telemetry store: the embedded default Time Series Database (seed 4.2.2.1 used InfluxDB).
 
 One narrow table ``(drone, time_us, field, value)`` so any field a drone sends can be stored; the
-same epoch-aligned mean-per-bucket downsampling as InfluxDB's ``GROUP BY time()``. WAL mode, and
-one worker thread so the event loop never waits on disk.
+same epoch-aligned mean-per-bucket downsampling as InfluxDB's ``GROUP BY time()``. WAL mode, through
+aiosqlite (one connection on its own thread, so the event loop never waits on disk; a kept library
+instead of our own executor wrapper), every call held on virtual time as in ground/state.py.
 """
 
 from __future__ import annotations
 
 import asyncio
-import sqlite3
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+import contextlib
 from pathlib import Path
-from typing import TypeVar
+
+import aiosqlite
 
 from dronefleet.ground.telemetry.store import (
     TelemetryPoint,
@@ -20,8 +20,7 @@ from dronefleet.ground.telemetry.store import (
     TelemetrySeries,
     round_value,
 )
-
-T = TypeVar("T")
+from dronefleet.virtual_loop import held
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS telemetry (
@@ -38,42 +37,40 @@ class SqliteTelemetryStore:
     def __init__(self, path: str, *, url: str | None = None) -> None:
         self.path = path
         self.url = url or f"sqlite:///{path}"
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="telemetry-sqlite")
-        self._db: sqlite3.Connection | None = None
+        self._db: aiosqlite.Connection | None = None
+        self._writing = asyncio.Lock()  # one transaction at a time on the one connection
 
-    async def _call(self, fn: Callable[[sqlite3.Connection], T]) -> T:
-        def call() -> T:
-            assert self._db is not None, "telemetry store is not open"
-            return fn(self._db)
-
-        return await asyncio.get_running_loop().run_in_executor(self._executor, call)
+    @property
+    def db(self) -> aiosqlite.Connection:
+        if self._db is None:
+            raise RuntimeError("telemetry store is not open")
+        return self._db
 
     async def open(self) -> None:
-        def connect() -> None:
-            if self.path != ":memory:":
-                Path(self.path).parent.mkdir(parents=True, exist_ok=True)
-            db = sqlite3.connect(self.path, isolation_level=None)
-            db.execute("PRAGMA journal_mode=WAL")
-            db.execute("PRAGMA synchronous=NORMAL")
-            db.executescript(_SCHEMA)
-            self._db = db
-
-        await asyncio.get_running_loop().run_in_executor(self._executor, connect)
+        if self.path != ":memory:":
+            await asyncio.to_thread(Path(self.path).parent.mkdir, parents=True, exist_ok=True)
+        db = await held(aiosqlite.connect(self.path, isolation_level=None))
+        await held(db.execute("PRAGMA journal_mode=WAL"))
+        await held(db.execute("PRAGMA synchronous=NORMAL"))
+        await held(db.executescript(_SCHEMA))
+        self._db = db
 
     async def close(self) -> None:
         if self._db is not None:
-            await self._call(lambda db: db.close())
-            self._db = None
-        self._executor.shutdown(wait=True)
+            db, self._db = self._db, None
+            await held(db.close())
 
     async def write(self, points: list[TelemetryPoint]) -> int:
         rows = [(p.drone_id, p.time_us, k, v) for p in points for k, v in p.fields.items()]
-
-        def insert(db: sqlite3.Connection) -> None:
-            with db:
-                db.executemany("INSERT INTO telemetry VALUES (?, ?, ?, ?)", rows)
-
-        await self._call(insert)
+        async with self._writing:  # one batch, one transaction
+            try:
+                await held(self.db.execute("BEGIN"))
+                await held(self.db.executemany("INSERT INTO telemetry VALUES (?, ?, ?, ?)", rows))
+                await held(self.db.execute("COMMIT"))
+            except BaseException:
+                with contextlib.suppress(Exception):  # see ground/state.py _roll_back
+                    await held(asyncio.shield(self.db.rollback()))
+                raise
         return len(points)
 
     async def query(self, query: TelemetryQuery) -> TelemetrySeries:
@@ -92,7 +89,11 @@ class SqliteTelemetryStore:
             sql += f" AND field IN ({', '.join(names)})"
             args.update({f"f{i}": name for i, name in enumerate(query.fields)})
         sql += " GROUP BY field, bucket ORDER BY field, bucket"
-        rows = await self._call(lambda db: db.execute(sql, args).fetchall())
+        cursor = await held(self.db.execute(sql, args))
+        try:
+            rows = await held(cursor.fetchall())
+        finally:
+            await held(cursor.close())
         result = TelemetrySeries(query)
         for name, bucket, mean in rows:
             result.series.setdefault(name, []).append((bucket / 1e6, round_value(mean)))

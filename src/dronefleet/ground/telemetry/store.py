@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from typing import Protocol
 from urllib.parse import urlsplit
 
+from dronefleet.errors import Unavailable
+
 #: Field names a store accepts (also safe inside InfluxQL double quotes and line protocol).
 FIELD_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 MEASUREMENT = "telemetry"
@@ -55,7 +57,7 @@ class TelemetrySeries:
         }
 
 
-class StoreError(RuntimeError):
+class StoreError(Unavailable, RuntimeError):
     """The store could not be reached or refused a request."""
 
 

@@ -29,6 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
+from dronefleet.errors import InvalidInput
+
 SYNC = 0x3C
 VERSION = 0x20
 TYPE_MASK = 0x78
@@ -67,7 +69,7 @@ _WITH_DATA = frozenset(
 _TYPES = {t.value: t for t in MessageType}
 
 
-class FrameError(ValueError):
+class FrameError(InvalidInput, ValueError):
     """Bytes that are not a valid UAVTalk frame; the message says what was wrong."""
 
 

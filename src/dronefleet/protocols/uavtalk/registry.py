@@ -14,13 +14,14 @@ from collections.abc import Iterable, Iterator
 from functools import cache
 from pathlib import Path
 
+from dronefleet.errors import InvalidInput
 from dronefleet.protocols.uavtalk.objects import FieldDef, FieldType, ObjectDef
 
 DEFINITIONS_DIR = Path(__file__).with_name("definitions")
 _XML_TYPES = {t.name.lower(): t for t in FieldType}
 
 
-class DefinitionError(ValueError):
+class DefinitionError(InvalidInput, ValueError):
     """An XML object definition that cannot be used; says which file and what is wrong."""
 
 

@@ -6,7 +6,7 @@ MAVLink, seed 6.2.4): mode numbers and which commands each mode accepts (takeoff
 and armed, position targets only in GUIDED, no arming in AUTO/RTL/LAND), RTL (climb to RTL_ALT,
 fly home, land), BRAKE/LOITER holds, the battery failsafe's switch to LAND, and AUTO, which flies
 the mission on board (:mod:`.auto`) whether or not anyone is listening. Refusals raise
-:class:`Refused` with the text the endpoint sends as STATUSTEXT before the COMMAND_ACK.
+:class:`CommandRefused` with the text the endpoint sends as STATUSTEXT before the COMMAND_ACK.
 
 What ArduPilot does that a forgiving simulator would not (issue 17; ArduPilot upstream 64a9c78):
 - a GUIDED position target while the vehicle is still on the ground replaces the take-off with a
@@ -25,6 +25,7 @@ import logging
 from dataclasses import replace
 from typing import Any
 
+from dronefleet.errors import Conflict
 from dronefleet.geo.types import NED
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.protocols.mavlink.items import MissionItem
@@ -49,7 +50,7 @@ _HOLDING = {
 _ARRIVED_M = 1.0
 
 
-class Refused(Exception):
+class CommandRefused(Conflict):
     """A command the autopilot refuses; ``reason`` goes out as STATUSTEXT (None: silent)."""
 
     def __init__(self, reason: str | None, result: int = mav.MAV_RESULT_FAILED) -> None:
@@ -109,12 +110,12 @@ class SimCopter:
         try:
             mode = CopterMode(number)
         except ValueError:
-            raise Refused(f"Mode change failed: no mode {number}") from None
+            raise CommandRefused(f"Mode change failed: no mode {number}") from None
         v = self.vehicle
         if mode is CopterMode.AUTO and len(self.mission) <= 1:
-            raise Refused("Mode change to AUTO failed: no mission")
+            raise CommandRefused("Mode change to AUTO failed: no mission")
         if mode is CopterMode.GUIDED_NOGPS or mode is CopterMode.THROW:
-            raise Refused(f"Mode change to {mode.name} failed: not supported by the sim")
+            raise CommandRefused(f"Mode change to {mode.name} failed: not supported by the sim")
         self._leave_mode()
         self.mode = mode
         if not v.in_air or v.falling:
@@ -137,7 +138,7 @@ class SimCopter:
     def start_mission(self) -> None:
         """MISSION_START: AUTO, and fly (or resume) the mission (must be armed)."""
         if not self.vehicle.armed:
-            raise Refused("Mission: arm first")
+            raise CommandRefused("Mission: arm first")
         self.set_mode(CopterMode.AUTO)
         self.auto_armed = True
         if not self.runner.running:
@@ -150,49 +151,49 @@ class SimCopter:
         if v.armed or v.arming:
             return
         if self.mode in _NOT_ARMABLE and not force:
-            raise Refused("Arm: Mode not armable")
+            raise CommandRefused("Arm: Mode not armable")
         try:
             v.arm()
         except VehicleError as exc:
-            raise Refused("Arm: " + _reason(exc, v)) from None
+            raise CommandRefused("Arm: " + _reason(exc, v)) from None
 
     def disarm(self, force: bool = False) -> None:
         try:
             self.vehicle.disarm(force=force)
         except VehicleError as exc:
-            raise Refused("Disarm: " + _reason(exc, self.vehicle)) from None
+            raise CommandRefused("Disarm: " + _reason(exc, self.vehicle)) from None
         if not self.vehicle.in_air or force:
             self._leave_mode()
 
     def takeoff(self, altitude_m: float) -> None:
         v = self.vehicle
         if self.mode is not CopterMode.GUIDED:
-            raise Refused(f"Takeoff: not in GUIDED mode (in {self.mode.name})")
+            raise CommandRefused(f"Takeoff: not in GUIDED mode (in {self.mode.name})")
         if not v.armed:
-            raise Refused("Takeoff: not armed")
+            raise CommandRefused("Takeoff: not armed")
         if v.in_air:
-            raise Refused("Takeoff: already flying")
+            raise CommandRefused("Takeoff: already flying")
         try:
             v.takeoff(altitude_m)
         except VehicleError as exc:
-            raise Refused("Takeoff: " + _reason(exc, v)) from None
+            raise CommandRefused("Takeoff: " + _reason(exc, v)) from None
 
     def guided_target(self, target: NED) -> None:
         v = self.vehicle
         if self.mode is not CopterMode.GUIDED:
-            raise Refused(f"Guided: not in GUIDED mode (in {self.mode.name})")
+            raise CommandRefused(f"Guided: not in GUIDED mode (in {self.mode.name})")
         if not v.in_air or v.relative_alt_m < _LIFTOFF_M:
             v.idle_on_ground()  # accepted, and the vehicle stays down (see the module doc)
             return
         try:
             v.goto(target)
         except VehicleError as exc:
-            raise Refused("Guided: " + _reason(exc, v)) from None
+            raise CommandRefused("Guided: " + _reason(exc, v)) from None
 
     def reboot(self, force: bool) -> None:
         v = self.vehicle
         if v.armed and not force:
-            raise Refused("Reboot: vehicle is armed; disarm first")
+            raise CommandRefused("Reboot: vehicle is armed; disarm first")
         self._leave_mode()
         self.mode = CopterMode.STABILIZE
         v.reboot(force=True)

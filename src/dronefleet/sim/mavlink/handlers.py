@@ -18,7 +18,7 @@ from dronefleet.geo.types import LLA, NED
 from dronefleet.protocols.mavlink.codec import Message
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.protocols.mavlink.modes import CopterMode
-from dronefleet.sim.mavlink.copter import Refused
+from dronefleet.sim.mavlink.copter import CommandRefused
 
 if TYPE_CHECKING:
     from dronefleet.sim.mavlink.endpoint import VehicleEndpoint
@@ -91,7 +91,7 @@ class CommandHandler:
             return mav.MAV_RESULT_UNSUPPORTED, None
         try:
             return handler(params, frame), None
-        except Refused as exc:
+        except CommandRefused as exc:
             return exc.result, exc.reason
 
     def _do(self, action: Callable[..., object], *args: object) -> int:
@@ -107,7 +107,7 @@ class CommandHandler:
 
     def _set_mode(self, p: Params, frame: int) -> int:
         if not int(p[0]) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            raise Refused("Mode change failed: use custom modes", mav.MAV_RESULT_DENIED)
+            raise CommandRefused("Mode change failed: use custom modes", mav.MAV_RESULT_DENIED)
         self.copter.set_mode(int(p[1]))
         return mav.MAV_RESULT_ACCEPTED
 
@@ -156,17 +156,17 @@ class CommandHandler:
         # item/last item not supported"); it starts or resumes at the current item, which
         # DO_SET_MISSION_CURRENT chooses.
         if p[0] != 0 or p[1] != 0:
-            raise Refused(None, mav.MAV_RESULT_DENIED)
+            raise CommandRefused(None, mav.MAV_RESULT_DENIED)
         copter = self.copter
         if len(copter.mission) <= 1:
-            raise Refused("Mission: no mission to start")
+            raise CommandRefused("Mission: no mission to start")
         copter.start_mission()
         return mav.MAV_RESULT_ACCEPTED
 
     def _set_current(self, p: Params, frame: int) -> int:
         seq = int(p[0])
         if not 0 <= seq < len(self.copter.mission):
-            raise Refused(f"Mission: no item {seq}", mav.MAV_RESULT_DENIED)
+            raise CommandRefused(f"Mission: no item {seq}", mav.MAV_RESULT_DENIED)
         self.copter.runner.set_current(seq)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -196,7 +196,7 @@ class CommandHandler:
     def set_mode_message(self, msg: Message) -> tuple[int, str | None]:
         try:
             return self._set_mode([msg.base_mode, msg.custom_mode, 0, 0, 0, 0, 0], 0), None
-        except Refused as exc:
+        except CommandRefused as exc:
             return exc.result, exc.reason
 
     def position_target(self, msg: Message) -> str | None:
@@ -207,7 +207,7 @@ class CommandHandler:
             self.copter.guided_target(
                 self._ned(msg.lat_int / 1e7, msg.lon_int / 1e7, msg.alt, msg.coordinate_frame)
             )
-        except Refused as exc:
+        except CommandRefused as exc:
             return exc.reason
         return None
 
@@ -221,5 +221,5 @@ class CommandHandler:
         try:
             ned = lla_to_ned(LLA(lat, lon, home.alt_m), home)
         except ValueError as exc:
-            raise Refused(f"Guided: bad target ({exc})", mav.MAV_RESULT_DENIED) from None
+            raise CommandRefused(f"Guided: bad target ({exc})", mav.MAV_RESULT_DENIED) from None
         return NED(ned.n, ned.e, -relative)

@@ -21,6 +21,7 @@ from typing import Any
 from pymavlink import mavutil
 
 from dronefleet.clock import monotonic
+from dronefleet.errors import Unavailable
 from dronefleet.protocols.mavlink.codec import Message, text_field
 from dronefleet.protocols.mavlink.codec import dialect as mav
 
@@ -35,7 +36,7 @@ GCS_COMPONENT_ID = mav.MAV_COMP_ID_MISSIONPLANNER
 _MAX_BATCH = 500
 
 
-class LinkLost(RuntimeError):
+class LinkLost(Unavailable, RuntimeError):
     pass
 
 

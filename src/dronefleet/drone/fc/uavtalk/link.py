@@ -21,7 +21,7 @@ from typing import Any
 from dronefleet.protocols.uavtalk.framing import Frame, FrameParser, MessageType, encode_frame
 from dronefleet.protocols.uavtalk.objects import ObjectDef
 from dronefleet.protocols.uavtalk.registry import ObjectRegistry, default_registry
-from dronefleet.vehicle.base import FcError
+from dronefleet.vehicle.base import FcError, FcRefused
 
 log = logging.getLogger(__name__)
 
@@ -35,7 +35,7 @@ class LinkError(FcError):
     """The UAVTalk link is down or the autopilot did not answer in time."""
 
 
-class Refused(FcError):
+class Refused(FcRefused):
     """The autopilot NACKed a request or write; the message carries its reason when known."""
 
 

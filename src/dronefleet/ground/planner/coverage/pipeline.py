@@ -73,7 +73,7 @@ class CoveragePipeline:
             filler = GapFiller(spacing / 2.0, GAP_TOLERANCE * spacing, builder)
             points, uncovered = filler.fill(points, sweep_area, router)
         local = [_unrotate(p, angle) for p in points]
-        waypoints = [projection.to_lla(p.x, p.y, spec.altitude_m) for p in local]
+        waypoints = projection.to_lla_many([(p.x, p.y) for p in local], spec.altitude_m)
         return CoveragePlan(
             spec=spec,
             origin=projection.origin,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 from shapely.geometry import Polygon
 from shapely.validation import make_valid
 
@@ -43,6 +44,14 @@ class LocalProjection:
     def to_lla(self, x: float, y: float, alt_m: float = 0.0) -> LLA:
         p = self.frame.to_lla(NED(y, x, 0.0))
         return LLA(p.lat, p.lon, alt_m)
+
+    def to_lla_many(self, xy: list[tuple[float, float]], alt_m: float = 0.0) -> list[LLA]:
+        """:meth:`to_lla` of many points at once (vectorised: a plan's waypoints)."""
+        if not xy:
+            return []
+        x, y = np.asarray(xy, dtype=float).T
+        lat, lon = self.frame.to_lla_many(y, x)
+        return [LLA(a, o, alt_m) for a, o in zip(lat.tolist(), lon.tolist(), strict=True)]
 
     def ring_xy(self, ring: list[LatLon]) -> list[XY]:
         return [self.to_xy(lat, lon) for lat, lon in ring]
