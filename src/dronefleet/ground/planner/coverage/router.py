@@ -91,8 +91,9 @@ class InAreaRouter:
         pts = np.vstack([nodes, [a], [b]])
         src, dst = m, m + 1
         to_b = np.hypot(*(pts - pts[dst]).T)
-        g = {src: 0.0}
-        prev: dict[int, int] = {}
+        g = np.full(m + 2, math.inf)
+        g[src] = 0.0
+        prev = np.full(m + 2, -1)
         order: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         # (f, tie, kind, node, next batch start): kind 0 arrives at node, kind 1 offers the
         # node's next batch of neighbours (its f is the best f left in the batch).
@@ -116,20 +117,22 @@ class InAreaRouter:
             cand, keys = order[u]
             size = max(self.first_batch, k)  # batches double: 16, 16, 32, 64, ...
             batch = cand[k : k + size]
-            for v in batch[self._sees(pts, u, batch)].tolist():
-                d = g[u] + math.dist(pts[u], pts[v])
-                if d < g.get(v, math.inf) - 1e-12:
-                    g[v], prev[v] = d, u
-                    heapq.heappush(heap, (d + float(to_b[v]), tie, 0, v, 0))
-                    tie += 1
+            seen = batch[self._sees(pts, u, batch)]
+            # Relax the visible ones at once; push only those it improves (in batch order).
+            d = g[u] + np.hypot(*(pts[seen] - pts[u]).T)
+            better = d < g[seen] - 1e-12
+            for v, dv in zip(seen[better].tolist(), d[better].tolist(), strict=True):
+                g[v], prev[v] = dv, u
+                heapq.heappush(heap, (dv + float(to_b[v]), tie, 0, v, 0))
+                tie += 1
             if k + size < len(cand):
                 heapq.heappush(heap, (g[u] + float(keys[k + size]), tie, 1, u, k + size))
                 tie += 1
-        if dst not in g:
+        if not math.isfinite(g[dst]):
             raise ValueError(f"no path inside the area from {a} to {b}")
         out = [b]
         i = dst
         while i != src:
-            i = prev[i]
+            i = int(prev[i])
             out.append(a if i == src else (float(pts[i][0]), float(pts[i][1])))
         return out[::-1]
