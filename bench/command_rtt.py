@@ -63,7 +63,7 @@ def _wait_port(port: int, timeout_s: float = 10.0) -> None:
 async def broker(tmp: Path, nodelay: bool):
     exe = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
     if not Path(exe).exists():  # noqa: ASYNC240 (once, before timing)
-        async with EmbeddedBroker() as embedded:
+        async with EmbeddedBroker(anonymous=True) as embedded:
             yield str(embedded.url), "embedded (amqtt)"
         return
     port = free_port()

@@ -63,7 +63,7 @@ async def measure(
         counts["telemetry"] += 1
 
     with tempfile.TemporaryDirectory(prefix="dronefleet-scale-") as tmp:
-        async with EmbeddedBroker() as broker:
+        async with EmbeddedBroker(anonymous=True) as broker:
             ground = GroundServices(
                 broker.url,
                 store_url=f"sqlite:///{Path(tmp) / 'telemetry.db'}",

@@ -27,7 +27,7 @@ def pytest_asyncio_loop_factories(config, item):
 
 @pytest.fixture
 async def embedded_broker():
-    async with EmbeddedBroker() as broker:
+    async with EmbeddedBroker(anonymous=True) as broker:
         yield broker.url
 
 
@@ -41,7 +41,7 @@ def mosquitto_broker(tmp_path):
 async def broker_url(request, tmp_path):
     """Each test using this runs once on the embedded broker and once on a real Mosquitto."""
     if request.param == "embedded":
-        async with EmbeddedBroker() as broker:
+        async with EmbeddedBroker(anonymous=True) as broker:
             yield broker.url
     else:
         with mosquitto(tmp_path) as url:

@@ -111,6 +111,7 @@ async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.drone.config import DroneConfig
     from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
+    from dronefleet.messaging.broker_users import BrokerRole
     from dronefleet.messaging.embedded import EmbeddedBroker
     from dronefleet.sim.homes import homes_around
     from dronefleet.simfleet import SimFleet, settle_heap
@@ -119,9 +120,12 @@ async def _demo(args: argparse.Namespace) -> int:
     home = parse_lla(DEFAULT_HOME)
     state_dir: Path = args.state_dir
     host, port = args.http
+    # Every part gets its own broker credentials, in memory only; strangers are refused (the
+    # printed broker address carries none: issue 12).
     async with EmbeddedBroker() as broker:
+        ground_url = broker.url_for("ground", BrokerRole.GROUND)
         ground = GroundServices(
-            broker.url,
+            ground_url,
             store_url=f"sqlite:///{state_dir / 'telemetry.db'}",
             state_path=state_dir / "ground.db",
             http_host=host,
@@ -136,7 +140,9 @@ async def _demo(args: argparse.Namespace) -> int:
                 ids = [f"QUAD_{i + 1}" for i in range(args.drones)]
                 for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):
                     config = DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs")
-                    await fleet.add_drone(config, broker.url, home=spot)
+                    await fleet.add_drone(
+                        config, broker.url_for(drone_id, BrokerRole.DRONE), home=spot
+                    )
                 settle_heap()
                 print(f"broker: {broker.url}")
                 print(f"web UI: {ground.http_url}/")
@@ -149,7 +155,7 @@ async def _demo(args: argparse.Namespace) -> int:
                     flush=True,
                 )
                 if ids and not args.no_mission:
-                    done = await _fly_demo_mission(broker.url, ids[0], fleet, stop)
+                    done = await _fly_demo_mission(ground_url, ids[0], fleet, stop)
                     if args.once:
                         return 0 if done else 1
                 await stop.wait()

@@ -20,6 +20,10 @@ def test_an_alarm_shows_on_the_fleet_page_as_it_comes(open_page, demo, screensho
     assert "OUT_MEASURE CO2 above bounds" in page.inner_text(f"{row} td.alarm")
     toast = page.locator(".toast.error", has_text="alarm from QUAD_1")
     assert toast.count() == 1 and "CO2 above bounds" in toast.inner_text()
+    colours = toast.evaluate(
+        "t => [getComputedStyle(t).color, getComputedStyle(t).backgroundColor]"
+    )
+    assert colours[0] != colours[1], f"the alarm is unreadable: {colours}"  # text on its own red
     screenshot(page, "7-fleet-alarm")
     console.assert_clean()
 

@@ -27,8 +27,16 @@ def wait_port(host: str, port: int, timeout_s: float = 10.0) -> None:
 
 
 @contextlib.contextmanager
-def mosquitto(tmp: Path, extra_conf: str = "", port: int | None = None) -> Iterator[BrokerUrl]:
-    """A Mosquitto of our own on a free loopback port (never assumes 1883 is free)."""
+def mosquitto(
+    tmp: Path,
+    extra_conf: str = "",
+    port: int | None = None,
+    *,
+    anonymous: bool = True,
+    persistent: bool = False,
+) -> Iterator[BrokerUrl]:
+    """A Mosquitto of our own on a free loopback port (never assumes 1883 is free); anonymous
+    clients allowed unless ``anonymous=False`` (then ``extra_conf`` names the password file)."""
     if not Path(MOSQUITTO).exists():
         raise RuntimeError(
             "mosquitto is not installed: run `make system-deps` (apt-get install mosquitto)"
@@ -38,8 +46,11 @@ def mosquitto(tmp: Path, extra_conf: str = "", port: int | None = None) -> Itera
     # As root, Mosquitto would drop to its own user, which cannot write its log or persistence
     # file into pytest's private tmp folder: a persistent session would then silently not be.
     user = "user root\n" if os.geteuid() == 0 else ""
+    keep = (
+        f"persistence true\npersistence_location {tmp}/\n" if persistent else "persistence false\n"
+    )
     conf.write_text(
-        f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n{user}"
+        f"listener {port} 127.0.0.1\nallow_anonymous {str(anonymous).lower()}\n{keep}{user}"
         "set_tcp_nodelay true\n"
         f"log_dest file {tmp}/mosquitto-{port}.log\n{extra_conf}\n"
     )

@@ -18,6 +18,7 @@ COMMAND_MODULES = (
     "dronefleet.cli.drone",
     "dronefleet.cli.sim",
     "dronefleet.cli.ground",
+    "dronefleet.cli.credentials",
     "dronefleet.cli.experiments",
     "dronefleet.demo",
 )

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+from pathlib import Path
 
 from dronefleet.messaging.url import BrokerUrl
 
@@ -16,6 +18,35 @@ def broker_url(text: str) -> str:
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"{exc} (e.g. mqtt://127.0.0.1:1883)") from None
     return text
+
+
+#: Where a broker password may come from besides a file: never only the command line, which
+#: every user of the machine can read in ``ps`` (issue 12).
+PASSWORD_ENV = "DRONEFLEET_BROKER_PASSWORD"
+
+
+def add_broker_password(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--broker-password-file",
+        type=Path,
+        help=f"file holding the broker password of the --broker user (or set {PASSWORD_ENV})",
+    )
+
+
+def broker_with_password(url: str, password_file: Path | None) -> str:
+    """``url`` with the password from ``password_file`` or the environment, if it has none."""
+    parsed = BrokerUrl.parse(url)
+    if parsed.password:
+        return url
+    if password_file is not None:
+        secret = password_file.read_text().strip()
+    else:
+        secret = os.environ.get(PASSWORD_ENV, "")
+    if not secret:
+        return url
+    if not parsed.username:
+        raise ValueError("a broker password needs a user: --broker mqtt://USER@HOST:PORT")
+    return BrokerUrl(parsed.host, parsed.port, parsed.username, secret).full()
 
 
 def port_number(text: str) -> int:

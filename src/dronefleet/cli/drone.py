@@ -8,7 +8,12 @@ import contextlib
 import sys
 from pathlib import Path
 
-from dronefleet.cli.args import broker_url, positive_speedup
+from dronefleet.cli.args import (
+    add_broker_password,
+    broker_url,
+    broker_with_password,
+    positive_speedup,
+)
 from dronefleet.geo.types import LLA
 from dronefleet.signals import stop_event
 
@@ -64,8 +69,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--broker",
         type=broker_url,
         default="mqtt://127.0.0.1:1883",
-        help="mqtt://user:pass@host:port",
+        help="mqtt://user@host:port (the password from --broker-password-file)",
     )
+    add_broker_password(p)
     p.add_argument(
         "--fc",
         choices=["sim", "mavlink", "uavtalk"],
@@ -113,6 +119,11 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.sensor_bound:
         config.sensor_bounds = dict(args.sensor_bound)
+    try:
+        args.broker = broker_with_password(args.broker, args.broker_password_file)
+    except (OSError, ValueError) as exc:
+        print(f"dronefleet drone: {exc}", file=sys.stderr)
+        return 2
     return asyncio.run(_serve(config, args))
 
 

@@ -7,7 +7,13 @@ import asyncio
 import sys
 from pathlib import Path
 
-from dronefleet.cli.args import broker_url, port_number, positive_speedup
+from dronefleet.cli.args import (
+    add_broker_password,
+    broker_url,
+    broker_with_password,
+    port_number,
+    positive_speedup,
+)
 from dronefleet.signals import stop_event
 
 
@@ -23,6 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument(
         "--broker", type=broker_url, default="mqtt://127.0.0.1:1883", help="ground broker URL"
     )
+    add_broker_password(g)
     g.add_argument(
         "--store",
         default="sqlite:///dronefleet-telemetry.db",
@@ -46,8 +53,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     b.add_argument("--drone-id", required=True)
     b.add_argument("--ground", type=_host_port, required=True, help="ground broker HOST:PORT")
-    b.add_argument("--username")
-    b.add_argument("--password")
+    b.add_argument("--username", help="the drone's broker user (dronefleet credentials add-drone)")
+    b.add_argument("--password-file", type=Path, help="file holding its password")
     b.add_argument("--connection", default="groundRelay", help="bridge connection name")
     b.add_argument("--listener", type=_host_port, help="also write a listener: a whole config")
     b.set_defaults(func=run_bridge_config)
@@ -62,11 +69,11 @@ def run_bridge_config(args: argparse.Namespace) -> int:
             args.ground[0],
             args.ground[1],
             username=args.username,
-            password=args.password,
+            password=args.password_file.read_text().strip() if args.password_file else None,
             connection=args.connection,
             listener=args.listener,
         )
-    except ValueError as exc:
+    except (OSError, ValueError) as exc:
         print(f"dronefleet bridge-config: {exc}", file=sys.stderr)
         return 2
     sys.stdout.write(text)
@@ -74,6 +81,11 @@ def run_bridge_config(args: argparse.Namespace) -> int:
 
 
 def run_ground(args: argparse.Namespace) -> int:
+    try:
+        args.broker = broker_with_password(args.broker, args.broker_password_file)
+    except (OSError, ValueError) as exc:
+        print(f"dronefleet ground: {exc}", file=sys.stderr)
+        return 2
     return asyncio.run(_ground(args))
 
 

@@ -24,7 +24,7 @@ from dronefleet.drone.navigation import NavigationProcessor, Tolerance
 from dronefleet.drone.state import flight_state, position_of
 from dronefleet.errors import Failed
 from dronefleet.messaging import topics
-from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
+from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient, BrokerUnavailable
 from dronefleet.messaging.codec import MessageError, decode, decode_object
 from dronefleet.messaging.commands import Command, CommandResponse, parse_control
 from dronefleet.messaging.gear import GearQuery, GearRequest
@@ -181,7 +181,7 @@ class DroneController:
                 GearRequest(query=query, sensor=sensor),
                 timeout_s=self.config.gear_timeout_s,
             )
-        except RequestTimeout as exc:
+        except (RequestTimeout, BrokerUnavailable) as exc:
             raise CommandError(f"the Gear Manager did not answer: {exc}") from exc
         if not reply.get("ok"):
             raise CommandError(reply.get("error") or f"gear {query} failed")

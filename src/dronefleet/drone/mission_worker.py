@@ -20,6 +20,7 @@ from dronefleet.clock import timestamp_s
 from dronefleet.drone import onboard
 from dronefleet.drone.controller import CommandError, DroneController
 from dronefleet.drone.navigation import Tolerance
+from dronefleet.drone.outbox import Outbox
 from dronefleet.drone.state import position_of
 from dronefleet.errors import Failed
 from dronefleet.messaging.client import QOS_COMMAND
@@ -66,6 +67,7 @@ class MissionWorker:
         self.config = controller.config
         self.clock = controller.clock
         self.client = controller.client
+        self.outbox = Outbox(controller.client)  # reports and alarms, never awaited by a mission
         self.queue: deque[Any] = deque()  # the internal task queue of Figure 4.14
         self.mission_id: str | None = None
         self._task: asyncio.Task[None] | None = None
@@ -82,6 +84,8 @@ class MissionWorker:
 
     async def stop(self) -> None:
         await self._cancel_current()
+        await self.outbox.drain(timeout_s=2.0)  # the last reports, if the broker is there
+        await self.outbox.close()
 
     @property
     def running(self) -> bool:
@@ -269,14 +273,18 @@ class MissionWorker:
             virtual=True,
             vehicle_time_s=round(self.clock.now(), 3),
         )
-        await self.client.publish(self.controller.topic(Channel.ALARMS), alarm, qos=QOS_COMMAND)
+        self.outbox.post(self.controller.topic(Channel.ALARMS), alarm)
         return {"alarm": str(step.level)}
 
     async def _read_sensors(self, step: Any) -> dict[str, Any]:
         if step.value:
             await self.clock.sleep(step.value)
         if self._sensor_names is None:  # asked once per mission, not at every waypoint
-            sensors = (await self.controller.gear(GearQuery.SENSORS)).get("sensors") or {}
+            try:
+                sensors = (await self.controller.gear(GearQuery.SENSORS)).get("sensors") or {}
+            except CommandError as exc:  # the Gear Manager unreachable (its broker away)
+                # A reading missed is recorded; the mission flies on (issue 13).
+                return {"readings": {}, "error": str(exc)}
             self._sensor_names = _sensor_names(sensors)
         readings = {}
         for name in self._sensor_names:
@@ -314,7 +322,15 @@ class MissionWorker:
             self.history.move_to_end(progress.mission_id)
             while len(self.history) > HISTORY_MISSIONS:
                 self.history.popitem(last=False)
-        await self.client.publish(self.controller.topic(Channel.MISSION), progress, qos=QOS_COMMAND)
+        topic_name = self.controller.topic(Channel.MISSION)
+        if progress.event is ProgressEvent.REJECTED:
+            # An answer to a request that never became a mission (junk, or a report of a leg it
+            # does not know): sent as it comes, so a flood of junk waits on the broker rather
+            # than filling the outbox (tests/integration/test_flood.py).
+            await self.client.publish(topic_name, progress, qos=QOS_COMMAND)
+            return
+        # Never awaited: a broker outage must not stop the mission (drone/outbox.py).
+        self.outbox.post(topic_name, progress)
 
     async def _replay(self, mission_id: str, request_id: str | None) -> None:
         """Re-send every report of ``mission_id``, in order; readers drop the duplicates."""
@@ -336,9 +352,7 @@ class MissionWorker:
             )
             return
         for progress in kept:
-            await self.client.publish(
-                self.controller.topic(Channel.MISSION), progress, qos=QOS_COMMAND
-            )
+            self.outbox.post(self.controller.topic(Channel.MISSION), progress)
 
 
 def _sensor_names(sensors: dict[str, Any]) -> list[str]:

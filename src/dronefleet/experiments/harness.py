@@ -20,6 +20,7 @@ from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.planner.models import MissionRecord
 from dronefleet.ground.planner.service import MissionPlanner
 from dronefleet.ground.services import GroundServices
+from dronefleet.messaging.broker_users import BrokerRole
 from dronefleet.messaging.commands import parse_control
 from dronefleet.messaging.embedded import EmbeddedBroker
 from dronefleet.sim.clock import SimClock
@@ -78,7 +79,7 @@ class Harness:
     async def start_ground(self) -> None:
         """(Re)start the ground services and the planner on the same state files."""
         self.ground = GroundServices(
-            self.broker.url,
+            self.broker.url_for("ground", BrokerRole.GROUND),
             store_url=f"sqlite:///{self.workdir / 'telemetry.db'}",
             state_path=self.workdir / "ground.db",
             serve_http=False,
@@ -116,7 +117,7 @@ class Harness:
         home = ned_to_lla(NED(offset.n, offset.e, 0.0), ORIGIN)
         app = await self.fleet.add_drone(
             DroneConfig(drone_id=drone_id, heartbeat_interval_s=1.0, **config),
-            self.broker.url,
+            self.broker.url_for(drone_id, BrokerRole.DRONE),
             home=home,
             battery_pct=battery_pct,
             backend=backend,

@@ -9,6 +9,8 @@ receive commands queued while it was away.
 
 from __future__ import annotations
 
+import ipaddress
+
 from dronefleet.messaging.topics import (
     OUT_ONLY,
     Channel,
@@ -50,8 +52,17 @@ def bridge_config(
     lines = [f"# dronefleet bridge for drone {drone_id} (seed Listing 4.3)"]
     if listener is not None:
         host, port = listener
+        if not ipaddress.ip_address(host if host != "localhost" else "127.0.0.1").is_loopback:
+            # The drone's own parts reach their broker anonymously, on the drone only; anything
+            # that can reach it from outside must not (issue 12).
+            raise ValueError(f"the drone's listener must be on loopback, not {host}")
         # Request/response is small-packet ping-pong: Nagle would add ~40 ms per hop.
-        lines += [f"listener {port} {host}", "allow_anonymous true", "set_tcp_nodelay true", ""]
+        lines += [
+            f"listener {port} {host}",
+            "allow_anonymous true",
+            "set_tcp_nodelay true",
+            "",
+        ]
     lines += [f"connection {connection}", f"address {ground_host}:{ground_port}"]
     if username:
         lines.append(f"username {_quote_free('username', username)}")

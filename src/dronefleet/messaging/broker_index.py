@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 from amqtt.broker import Broker
@@ -76,13 +77,29 @@ def _is_wildcard(topic_filter: str) -> bool:
 
 
 class IndexedBroker(Broker):
-    """amqtt's broker, routing each topic through an index of the filters that match it."""
+    """amqtt's broker, routing each topic through an index of the filters that match it, and
+    checking topics with ``topic_rule(user, topic, action)`` when given: amqtt asks its topic
+    plugins through a task per plugin per check, for every delivery too, which cost more than
+    the routing (what a client may hear is decided when it subscribes, so deliveries pass)."""
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        *args: Any,
+        topic_rule: Callable[[str | None, str, Action], bool] | None = None,
+        **kwargs: Any,
+    ) -> None:
         super().__init__(*args, **kwargs)
+        self._topic_rule = topic_rule
         self._subscriptions: dict[str, list[Any]] = _Filters(self._subscriptions)
         self._wildcard_cache: dict[str, tuple[str, ...]] = {}
         self._wildcard_cache_version = -1
+
+    async def _topic_filtering(self, session: Session, topic: str, action: Action) -> bool:
+        if self._topic_rule is None:
+            return bool(await super()._topic_filtering(session, topic, action))
+        if action is Action.RECEIVE:
+            return True
+        return self._topic_rule(session.username if session else None, topic, action)
 
     def _filters_for(self, topic: str) -> list[str]:
         filters = self._subscriptions

@@ -1,7 +1,10 @@
 """An in-process MQTT broker (amqtt) on a free loopback port: the embedded default.
 
 ``dronefleet demo`` and the tests use it so that nothing needs a system service. Real deployments
-use Mosquitto or RabbitMQ (docs/DESIGN.md §9).
+use Mosquitto or RabbitMQ (docs/DESIGN.md §9). It refuses anonymous clients unless asked to
+(``anonymous=True``, for tests that want it): each user comes from ``broker.users``, and
+``broker.url_for(name, role)`` makes one and gives the URL with its credentials, which stay in
+the process (messaging/embedded_auth.py applies the rules of messaging/broker_acl.py).
 """
 
 from __future__ import annotations
@@ -11,6 +14,8 @@ import logging
 import socket
 
 from dronefleet.messaging.broker_index import IndexedBroker
+from dronefleet.messaging.broker_users import BrokerRole, BrokerUsers
+from dronefleet.messaging.embedded_auth import topic_rule
 from dronefleet.messaging.url import BrokerUrl
 
 
@@ -23,27 +28,43 @@ def free_port(host: str = "127.0.0.1") -> int:
 class EmbeddedBroker:
     """Start with ``await broker.start()`` or ``async with``; ``broker.url`` is where it listens."""
 
-    def __init__(self, host: str = "127.0.0.1", port: int | None = None) -> None:
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int | None = None,
+        *,
+        users: BrokerUsers | None = None,
+        anonymous: bool = False,
+    ) -> None:
         self.host = host
         self.port = port or free_port(host)
+        self.users = users if users is not None else BrokerUsers()
+        self.anonymous = anonymous
         self._broker: IndexedBroker | None = None
 
     @property
     def url(self) -> BrokerUrl:
+        """The address, without credentials (an anonymous broker needs none)."""
         return BrokerUrl(self.host, self.port)
+
+    def url_for(self, name: str, role: BrokerRole) -> BrokerUrl:
+        """A new user ``name`` (fresh password) and the URL it connects with."""
+        password = self.users.add(name, role)
+        return BrokerUrl(self.host, self.port, username=name, password=password)
 
     async def start(self) -> EmbeddedBroker:
 
         # amqtt logs every connection at INFO; keep our logs readable.
         for name in ("amqtt", "transitions"):
             logging.getLogger(name).setLevel(logging.WARNING)
+        rules = {"users": self.users, "anonymous": self.anonymous}
         config = {
             "listeners": {"default": {"type": "tcp", "bind": f"{self.host}:{self.port}"}},
-            "plugins": {
-                "amqtt.plugins.authentication.AnonymousAuthPlugin": {"allow_anonymous": True}
-            },
+            "plugins": {"dronefleet.messaging.embedded_auth.FleetAuthPlugin": rules},
         }
-        broker = self._broker = IndexedBroker(config)
+        broker = self._broker = IndexedBroker(
+            config, topic_rule=topic_rule(self.users, self.anonymous)
+        )
         await broker.start()
         return self
 

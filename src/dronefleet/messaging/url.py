@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from urllib.parse import unquote, urlsplit
+from urllib.parse import quote, unquote, urlsplit
 
 
 @dataclass(frozen=True)
@@ -39,5 +39,6 @@ class BrokerUrl:
         """The URL with its password, for handing to a child process."""
         auth = ""
         if self.username:
-            auth = self.username + (f":{self.password}" if self.password else "") + "@"
+            secret = f":{quote(self.password, safe='')}" if self.password else ""
+            auth = quote(self.username, safe="") + secret + "@"
         return f"mqtt://{auth}{self.host}:{self.port}"

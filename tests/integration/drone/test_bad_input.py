@@ -41,7 +41,7 @@ class BackgroundDrone:
         return asyncio.run_coroutine_threadsafe(coro, self.loop).result(timeout_s)
 
     async def _start(self) -> None:
-        self.broker = await EmbeddedBroker().start()
+        self.broker = await EmbeddedBroker(anonymous=True).start()
         self.fleet = await SimFleet(speedup=50).start()
         await self.fleet.add_drone(
             DroneConfig(drone_id=DRONE), self.broker.url, home=LLA(40.63, -8.659, 10)

@@ -34,7 +34,7 @@ SQUARE = rectangle(0, 0, 100, 100)  # [lat, lon] corners, counter-clockwise from
 @pytest_asyncio.fixture(scope="module", loop_scope="module")
 async def api(tmp_path_factory) -> AsyncIterator[httpx.AsyncClient]:
     tmp = tmp_path_factory.mktemp("refusals")
-    async with EmbeddedBroker() as broker:
+    async with EmbeddedBroker(anonymous=True) as broker:
         ground = GroundServices(
             broker.url,
             store_url="sqlite://:memory:",

@@ -31,10 +31,12 @@ from support.ground_procs import (
 pytestmark = pytest.mark.integration
 
 
-def bridge_conf(drone_id: str, ground: BrokerUrl) -> str:
+def bridge_conf(drone_id: str, ground: BrokerUrl, tmp: Path) -> str:
     args = ["bridge-config", "--drone-id", drone_id, "--ground", f"{ground.host}:{ground.port}"]
     if ground.username:
-        args += ["--username", ground.username, "--password", ground.password or ""]
+        secret = tmp / "bridge.secret"  # a password never goes on a command line (issue 12)
+        secret.write_text(ground.password or "")
+        args += ["--username", ground.username, "--password-file", str(secret)]
     return subprocess.run(dronefleet(*args), check=True, capture_output=True, text=True).stdout
 
 
@@ -42,7 +44,7 @@ def fly_through_bridge(tmp: Path, ground: BrokerUrl) -> None:
     drone_id = f"BRIDGED_{secrets.token_hex(3)}"
     token = secrets.token_urlsafe(16)
     port = free_port()
-    conf = bridge_conf(drone_id, ground)
+    conf = bridge_conf(drone_id, ground, tmp)
     assert f"topic {drone_id}/control/in in" in conf and "topic +/telemetry/out out" in conf
     with (
         mosquitto(tmp, extra_conf=conf) as internal,

@@ -12,45 +12,27 @@ import asyncio
 
 import pytest
 
-from dronefleet.experiments import scenarios
 from dronefleet.experiments.harness import Harness
 from dronefleet.geo.types import NED
-from dronefleet.ground.planner import launch
-from dronefleet.ground.planner.coverage import AreaSpec, plan_area
 from dronefleet.ground.planner.models import MissionState
 from dronefleet.ground.planner.options import LegRole, MissionOptions
 from dronefleet.ground.planner.units import remaining
+from support.missions import fly_with_a_spare, small_field_steps
 
 pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
 
 
 async def _fly_and_lose(h: Harness, *, replacement: bool) -> tuple[str, set[int]]:
-    area = AreaSpec(
-        polygon=scenarios.rectangle(17, 0, 30, 60),
-        spacing_m=10,
-        altitude_m=10,
-        angle_deg=0,
-        grid="seed",
+    options = MissionOptions(
+        strategy="ours", collaboration=False, early_replacement=False, replacement=replacement
     )
-    await h.add_drone("QUAD_A", NED(0, 0))
-    await h.add_drone("QUAD_B", NED(10, 10))
-    await h.wait_identified(["QUAD_A", "QUAD_B"])
-    await h.settle()
-    spec = launch.MissionSpec(
-        name="lost",
-        drones=["QUAD_A"],
-        steps=plan_area(area).mission_steps(),
-        options=MissionOptions(
-            strategy="ours", collaboration=False, early_replacement=False, replacement=replacement
-        ),
-    )
-    record = await launch.create(h.planner, spec, start=True)
-    while len(h.planner.missions[record.mission_id].done) < 12:
+    mission_id = await fly_with_a_spare(h, small_field_steps(), options, spare_at=NED(10, 10))
+    while len(h.planner.missions[mission_id].done) < 12:
         await asyncio.sleep(0.05)
     for client in h.fleet.apps["QUAD_A"].clients.values():
         await client.stop()  # its link is cut mid-mission: nothing more is heard from it
-    done_before = set(h.planner.missions[record.mission_id].done)
-    return record.mission_id, done_before
+    done_before = set(h.planner.missions[mission_id].done)
+    return mission_id, done_before
 
 
 async def test_a_lost_drones_unreported_steps_are_flown_by_another_and_none_twice():

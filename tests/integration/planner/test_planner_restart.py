@@ -11,38 +11,22 @@ import asyncio
 
 import pytest
 
-from dronefleet.experiments import scenarios
 from dronefleet.experiments.harness import ORIGIN, Harness
 from dronefleet.geo.types import NED
-from dronefleet.ground.planner import launch
-from dronefleet.ground.planner.coverage import AreaSpec, plan_area
-from dronefleet.ground.planner.launch import MissionOptions, MissionSpec
+from dronefleet.ground.planner.launch import MissionOptions
+from support.missions import fly_with_a_spare, small_field_steps
 
 pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
+
+#: Replaced on its CRITICAL alarm only (no early replacement), the seed's way.
+ON_ALARM = MissionOptions(strategy="seed", collaboration=False, early_replacement=False)
 
 
 async def test_ground_restart_during_a_replacement_loses_nothing():
     async with Harness(speedup=10) as h:
-        area = AreaSpec(
-            polygon=scenarios.rectangle(17, 0, 30, 60),
-            spacing_m=10,
-            altitude_m=10,
-            angle_deg=0,
-            grid="seed",
+        mission_id = await fly_with_a_spare(
+            h, small_field_steps("CRITICAL"), ON_ALARM, spare_at=NED(77, 70), hovering_m=10
         )
-        steps = scenarios.with_alarm(plan_area(area).mission_steps(), 13, "CRITICAL")
-        await h.add_drone("QUAD_A", NED(0, 0), hovering_m=10)
-        await h.add_drone("QUAD_B", NED(77, 70))
-        await h.wait_identified(["QUAD_A", "QUAD_B"])
-        await h.settle()
-        spec = MissionSpec(
-            name="restart",
-            drones=["QUAD_A"],
-            steps=steps,
-            options=MissionOptions(strategy="seed", collaboration=False, early_replacement=False),
-        )
-        record = await launch.create(h.planner, spec, start=True)
-        mission_id = record.mission_id
 
         # Wait for the handover, then kill the ground while QUAD_B is on its way.
         while not h.planner.missions[mission_id].handovers:
@@ -93,31 +77,15 @@ async def test_a_replacement_decided_just_before_the_ground_died_is_finished_aft
 
     monkeypatch.setattr(replacement, "_hand_over", dies_here)
     async with Harness(speedup=10) as h:
-        area = AreaSpec(
-            polygon=scenarios.rectangle(17, 0, 30, 60),
-            spacing_m=10,
-            altitude_m=10,
-            angle_deg=0,
-            grid="seed",
+        mission_id = await fly_with_a_spare(
+            h, small_field_steps("CRITICAL"), ON_ALARM, spare_at=NED(77, 70), hovering_m=10
         )
-        steps = scenarios.with_alarm(plan_area(area).mission_steps(), 13, "CRITICAL")
-        await h.add_drone("QUAD_A", NED(0, 0), hovering_m=10)
-        await h.add_drone("QUAD_B", NED(77, 70))
-        await h.wait_identified(["QUAD_A", "QUAD_B"])
-        await h.settle()
-        spec = MissionSpec(
-            name="restart mid-handover",
-            drones=["QUAD_A"],
-            steps=steps,
-            options=MissionOptions(strategy="seed", collaboration=False, early_replacement=False),
-        )
-        record = await launch.create(h.planner, spec, start=True)
         async with asyncio.timeout(60):
             await decided.wait()
         await h.stop_ground()
         monkeypatch.undo()
         await h.start_ground()
-        record = await h.until_ended(record.mission_id, timeout_s=120)
+        record = await h.until_ended(mission_id, timeout_s=120)
 
     assert record.state.value == "completed", record.error
     assert len(record.handovers) == 1 and record.handovers[0].to_drone == "QUAD_B"

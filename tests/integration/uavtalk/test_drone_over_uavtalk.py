@@ -24,7 +24,7 @@ HOME = LLA(40.63, -8.659, 10.0)
 
 async def test_mqtt_arm_and_takeoff_reach_the_vehicle_over_uavtalk():
     async with (
-        EmbeddedBroker() as broker,
+        EmbeddedBroker(anonymous=True) as broker,
         SimWorld(speedup=20) as world,
     ):
         vehicle = world.add_vehicle("UAVT_1", HOME)

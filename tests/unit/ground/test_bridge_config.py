@@ -8,7 +8,9 @@ from dronefleet.cli import main
 from dronefleet.messaging.bridge import bridge_config
 
 
-def test_the_listing_of_the_seed(capsys):
+def test_the_listing_of_the_seed(capsys, tmp_path):
+    secret = tmp_path / "drone.secret"
+    secret.write_text("dronePassword\n")
     assert (
         main(
             [
@@ -19,8 +21,8 @@ def test_the_listing_of_the_seed(capsys):
                 "10.0.0.5:1883",
                 "--username",
                 "droneUsername",
-                "--password",
-                "dronePassword",
+                "--password-file",
+                str(secret),
             ]
         )
         == 0
@@ -49,3 +51,9 @@ def test_a_whole_config_with_a_listener_and_bad_input_refused():
         bridge_config("a/b", "ground")
     with pytest.raises(ValueError):
         bridge_config("D1", "ground host")
+
+
+def test_the_drones_anonymous_listener_is_refused_off_loopback():
+    """Issue 12: only the drone's own parts may reach its broker without credentials."""
+    with pytest.raises(ValueError, match="loopback"):
+        bridge_config("D1", "ground", 1884, listener=("0.0.0.0", 1999))

@@ -10,7 +10,7 @@ from dronefleet.geo.types import LLA, NED
 from dronefleet.protocols.mavlink import items as mi
 from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.camera import SimCamera
-from dronefleet.sim.mavlink.copter import CopterEvents, CommandRefused, SimCopter
+from dronefleet.sim.mavlink.copter import CommandRefused, CopterEvents, SimCopter
 from dronefleet.sim.vehicle import SimVehicle
 
 HOME = LLA(40.63, -8.659, 10.0)

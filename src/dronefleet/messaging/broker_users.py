@@ -1,0 +1,92 @@
+"""Who may connect to a broker: a drone or a ground service, each with its own password.
+
+Passwords are random (24 bytes), handed out once, and kept only as Mosquitto's own hash
+(``$7$<iterations>$<salt>$<key>``: PBKDF2-HMAC-SHA512, base64; the format ``mosquitto_passwd``
+writes), so the same record serves the embedded broker (messaging/embedded_auth.py) and a
+Mosquitto password file (messaging/broker_acl.py) alike. Checked in constant time.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import hmac
+import secrets
+from dataclasses import dataclass
+from enum import StrEnum
+
+from dronefleet.errors import InvalidInput
+from dronefleet.messaging.topics import GROUND_PREFIX, check_drone_id
+
+#: PBKDF2 rounds; Mosquitto reads the count from each hash, so any value works with it.
+ITERATIONS = 1_000
+_SALT_BYTES = 12
+
+
+class BrokerRole(StrEnum):
+    DRONE = "drone"  # speaks only under its own id
+    GROUND = "ground"  # commands any drone, hears every drone, owns ``ground/...``
+
+
+@dataclass(frozen=True)
+class BrokerUser:
+    name: str  # a drone's user name is its drone id
+    role: BrokerRole
+    password_hash: str
+
+
+def hash_password(password: str, *, salt: bytes | None = None) -> str:
+    salt = salt if salt is not None else secrets.token_bytes(_SALT_BYTES)
+    key = hashlib.pbkdf2_hmac("sha512", password.encode(), salt, ITERATIONS)
+    b64 = base64.b64encode
+    return f"$7${ITERATIONS}${b64(salt).decode()}${b64(key).decode()}"
+
+
+def check_password(password: str, hashed: str) -> bool:
+    try:
+        _, kind, rounds, salt, key = hashed.split("$")
+        if kind != "7":
+            return False
+        got = hashlib.pbkdf2_hmac("sha512", password.encode(), base64.b64decode(salt), int(rounds))
+    except (ValueError, TypeError):
+        return False
+    return hmac.compare_digest(got, base64.b64decode(key))
+
+
+def new_password() -> str:
+    return secrets.token_urlsafe(24)
+
+
+class BrokerUsers:
+    """The users of one broker, by name."""
+
+    def __init__(self) -> None:
+        self._users: dict[str, BrokerUser] = {}
+
+    def add(self, name: str, role: BrokerRole, password: str | None = None) -> str:
+        """Create or replace ``name``; returns its password (the only time it is seen)."""
+        if role is BrokerRole.DRONE:
+            check_drone_id(name)
+        elif not name or ":" in name or name.startswith(GROUND_PREFIX + "/"):
+            raise InvalidInput(f"bad broker user name {name!r}")
+        password = password or new_password()
+        self._users[name] = BrokerUser(name, role, hash_password(password))
+        return password
+
+    def add_hashed(self, user: BrokerUser) -> None:
+        self._users[user.name] = user
+
+    def remove(self, name: str) -> bool:
+        return self._users.pop(name, None) is not None
+
+    def get(self, name: str | None) -> BrokerUser | None:
+        return self._users.get(name) if name else None
+
+    def all(self) -> list[BrokerUser]:
+        return sorted(self._users.values(), key=lambda u: u.name)
+
+    def authenticate(self, name: str | None, password: str | None) -> BrokerUser | None:
+        user = self.get(name)
+        if user is None or password is None or not check_password(password, user.password_hash):
+            return None
+        return user
