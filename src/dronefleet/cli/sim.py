@@ -46,6 +46,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--battery-pct", type=float, default=100.0, help="initial charge")
     p.add_argument(
+        "--sysid-base",
+        type=_system_id,
+        default=1,
+        help="MAVLink system id of the first vehicle (vehicle i: BASE+i), so two sims differ",
+    )
+    p.add_argument(
         "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"
     )
     p.add_argument("--pictures", type=Path, help="write each picture taken as a JPEG here")
@@ -60,9 +66,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_run)
 
 
+def _system_id(text: str) -> int:
+    if not text.isdigit() or not 1 <= int(text) <= 250:
+        raise argparse.ArgumentTypeError(f"a MAVLink system id is 1-250, not {text!r}")
+    return int(text)
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.count < 1:
         print("dronefleet sim: --count must be at least 1", file=sys.stderr)
+        return 2
+    if getattr(args, "sysid_base", 1) + args.count - 1 > 255:
+        print("dronefleet sim: --sysid-base + --count - 1 must be at most 255", file=sys.stderr)
         return 2
     if args.speedup <= 0:
         print("dronefleet sim: --speedup must be positive", file=sys.stderr)
@@ -92,6 +107,7 @@ async def _serve(args: argparse.Namespace) -> int:
         host=host,
         base_port=base_port,
         battery_pct=args.battery_pct,
+        first_system_id=args.sysid_base,
         plumes=args.plume,
         pictures_dir=args.pictures,
     )

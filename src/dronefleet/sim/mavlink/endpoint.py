@@ -1,8 +1,10 @@
 """One simulated vehicle on its own UDP port, speaking MAVLink 2 as an ArduPilot Copter would.
 
 Any ground station that sends a datagram to the port becomes a peer and receives the vehicle's
-telemetry (several at once: our drone backend and, say, QGroundControl); peers silent for
-``peer_timeout_s`` are forgotten. Incoming datagrams are decoded one by one (a bad one is counted
+telemetry (several at once: our drone backend and, say, QGroundControl). As ArduPilot does, it
+keeps streaming to a peer that has gone quiet (issue 10, item 8: streams used to stop 9.9 s after
+the ground station stopped sending); only the :data:`MAX_PEERS` most recently heard are kept.
+Incoming datagrams are decoded one by one (a bad one is counted
 and dropped) and dispatched: commands, SET_MODE, GUIDED targets, the mission and parameter
 protocols. :meth:`VehicleEndpoint.update` runs on the sim clock — mode logic, then whatever
 telemetry is due — so a sped-up world streams in vehicle time. While the vehicle reboots it is
@@ -26,6 +28,9 @@ from dronefleet.sim.mavlink.transfer import MissionTransfer
 
 log = logging.getLogger(__name__)
 
+#: Ground stations streamed to at once (the most recently heard).
+MAX_PEERS = 8
+
 _STATUSTEXT_LEN = 50
 _POSITION_TARGET = mav.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT
 
@@ -41,7 +46,6 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         port: int,
         *,
         gas_sensor: GasSensor | None = None,
-        peer_timeout_s: float = 10.0,
     ) -> None:
         self.copter = copter
         copter.events = self
@@ -49,7 +53,6 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         self.system_id = system_id
         self.host, self.port = host, port
         self.gas_sensor = gas_sensor
-        self.peer_timeout_s = peer_timeout_s
         self.peers: dict[tuple[str, int], float] = {}
         self.streams = StreamScheduler()
         self.commands = CommandHandler(self)
@@ -83,6 +86,8 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
     # -- receiving ----------------------------------------------------------------------------
     def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
         self.peers[addr] = monotonic()
+        if len(self.peers) > MAX_PEERS:  # the one heard longest ago makes room
+            del self.peers[min(self.peers, key=self.peers.__getitem__)]
         if self.copter.vehicle.rebooting:
             return
         for msg in self._decoder.feed_datagram(data):
@@ -156,11 +161,7 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         if self._transport is None or not self.peers:
             return
         data = self._encoder.pack(msg)
-        now = monotonic()
-        for addr, seen in list(self.peers.items()):
-            if now - seen > self.peer_timeout_s:
-                del self.peers[addr]
-                continue
+        for addr in list(self.peers):
             self._transport.sendto(data, addr)
 
     def send_now(self, msg_id: int) -> bool:

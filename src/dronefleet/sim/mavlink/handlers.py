@@ -59,6 +59,9 @@ class CommandHandler:
             m.MAV_CMD_DO_SET_CAM_TRIGG_DIST: self._trigger_distance,
             m.MAV_CMD_DO_REPOSITION: self._reposition,
             m.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
+            m.MAV_CMD_GET_HOME_POSITION: lambda p, f: self._send_now(
+                m.MAVLINK_MSG_ID_HOME_POSITION
+            ),
         }
 
     # -- COMMAND_LONG / COMMAND_INT ---------------------------------------------------------------
@@ -93,6 +96,10 @@ class CommandHandler:
             return handler(params, frame), None
         except CommandRefused as exc:
             return exc.result, exc.reason
+
+    def _send_now(self, msg_id: int) -> int:
+        """A message sent at once (ArduPilot answers GET_HOME_POSITION so, issue 10 item 9)."""
+        return mav.MAV_RESULT_ACCEPTED if self.endpoint.send_now(msg_id) else mav.MAV_RESULT_FAILED
 
     def _do(self, action: Callable[..., object], *args: object) -> int:
         action(*args)

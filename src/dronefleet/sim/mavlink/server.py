@@ -109,6 +109,7 @@ def fleet_server(
     battery_pct: float = 100.0,
     plumes: list[tuple[float, float, float, float]] | None = None,
     pictures_dir: str | Path | None = None,
+    first_system_id: int = 1,
 ) -> MavlinkSimServer:
     """A world of ``count`` vehicles around ``home``, ready to :meth:`~MavlinkSimServer.start`."""
     from dronefleet.sim.gasfield import GasField, Plume
@@ -117,7 +118,13 @@ def fleet_server(
         [Plume(LLA(lat, lon), peak_ppm=peak, radius_m=r) for lat, lon, peak, r in plumes or []]
     )
     world = SimWorld(speedup=speedup, gas_field=field)
-    server = MavlinkSimServer(world, host=host, base_port=base_port, pictures_dir=pictures_dir)
+    server = MavlinkSimServer(
+        world,
+        host=host,
+        base_port=base_port,
+        pictures_dir=pictures_dir,
+        first_system_id=first_system_id,
+    )
     for spot in homes_around(home, count, spacing_m):
         server.add_vehicle(LLA(spot.lat, spot.lon, home.alt_m), initial_charge_pct=battery_pct)
     return server

@@ -16,6 +16,7 @@ from dronefleet.clock import monotonic
 from dronefleet.protocols.mavlink.codec import Message
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.protocols.mavlink.items import MISSION, MissionItem
+from dronefleet.protocols.mavlink.modes import CopterMode
 
 if TYPE_CHECKING:
     from dronefleet.sim.mavlink.copter import SimCopter
@@ -129,7 +130,12 @@ class MissionTransfer:
         self.send(mission[msg.seq].to_message(msg.get_srcSystem(), msg.get_srcComponent(), msg.seq))
 
     def _on_clear(self, msg: Message) -> None:
-        self.copter.on_mission_replaced([])
+        c = self.copter
+        if c.mode is CopterMode.AUTO and c.vehicle.armed:
+            # ArduPilot refuses to clear the mission it is flying (issue 10, item 9).
+            self._ack(msg, mav.MAV_MISSION_DENIED)
+            return
+        c.on_mission_replaced([])
         self._ack(msg, mav.MAV_MISSION_ACCEPTED)
 
     def _on_set_current(self, msg: Message) -> None:
