@@ -76,3 +76,21 @@ def test_the_mission_being_flown_cannot_be_cleared():
     copter.set_mode(CopterMode.LOITER)  # not flying the mission: clearing is fine
     transfer.handle(clear)
     assert acks[-1] == mav.MAV_MISSION_ACCEPTED
+
+
+def test_a_speed_change_lasts_until_the_mode_changes():
+    """Item 7: DO_CHANGE_SPEED rewrote WPNAV_SPEED for good and carried into later GUIDED flight."""
+    endpoint = _Endpoint()
+    copter = endpoint.copter
+    handler = CommandHandler(endpoint)  # type: ignore[arg-type]
+    default = copter.vehicle.limits.max_speed_mps
+    copter.set_mode(CopterMode.GUIDED)
+    msg = mav.MAVLink_command_long_message(
+        1, 1, mav.MAV_CMD_DO_CHANGE_SPEED, 0, 1, 3, -1, 0, 0, 0, 0
+    )
+    assert handler.command(msg) == (mav.MAV_RESULT_ACCEPTED, None)
+    assert copter.vehicle.limits.max_speed_mps == 3
+    assert copter.params.get("WPNAV_SPEED") == default * 100  # the parameter is untouched
+    copter.set_mode(CopterMode.LOITER)
+    copter.set_mode(CopterMode.GUIDED)
+    assert copter.vehicle.limits.max_speed_mps == default

@@ -130,7 +130,15 @@ class SimCopter:
         else:  # GUIDED starts by holding where it is, like the hold modes
             v.hold()
 
+    def set_speed(self, speed_mps: float) -> None:
+        """DO_CHANGE_SPEED: the horizontal speed until the mode changes (ArduPilot sets the
+        waypoint controller's speed, not WPNAV_SPEED, so it does not carry into the next mode)."""
+        if speed_mps > 0:
+            self.vehicle.limits = replace(self.vehicle.limits, max_speed_mps=speed_mps)
+
     def _leave_mode(self) -> None:
+        # A speed changed for this mode (DO_CHANGE_SPEED) ends with it (issue 10, item 7).
+        self._param_changed("WPNAV_SPEED", self.params.get("WPNAV_SPEED"))
         self.runner.stop()
         self._rtl_phase = None
         self.auto_armed = False

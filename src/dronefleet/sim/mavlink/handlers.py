@@ -195,8 +195,7 @@ class CommandHandler:
         return mav.MAV_RESULT_ACCEPTED
 
     def _change_speed(self, p: Params, frame: int) -> int:
-        if p[1] > 0:
-            self.copter.params.set("WPNAV_SPEED", p[1] * 100)
+        self.copter.set_speed(p[1])
         return mav.MAV_RESULT_ACCEPTED
 
     # -- SET_MODE and GUIDED targets ----------------------------------------------------------
