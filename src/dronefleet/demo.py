@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -49,6 +50,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tiles", help="map tile URL template; none: an offline grid is drawn")
     p.add_argument("--token", help="use this operator token instead of a fresh one")
     p.add_argument("--no-mission", action="store_true", help="do not fly the demo mission")
+    p.add_argument(
+        "--external-drone",
+        action="append",
+        default=[],
+        metavar="ID",
+        help="let a drone run apart join (its broker password is written to the state dir)",
+    )
     p.add_argument("--once", action="store_true", help="exit when the demo mission is done")
     p.set_defaults(func=run)
 
@@ -90,20 +98,46 @@ def demo_mission(home) -> list[dict[str, Any]]:
     ]
 
 
-async def _tokens(book: Any, state_dir: Path, given: str | None) -> tuple[str, str]:
-    """Fresh operator and viewer tokens (or ``--token`` for the operator), printed once.
+async def _tokens(book: Any, state_dir: Path, given: str | None) -> tuple[str, str] | None:
+    """The operator and viewer tokens to print, or None when the last run's are kept.
 
-    Nothing on disk holds a token (issue 12): the ground keeps only their hashes, so a restarted
-    demo prints new ones, and an earlier demo's plaintext ``demo-tokens.json`` is removed.
+    Nothing on disk holds a token (issue 12): the ground keeps only their hashes. A first run
+    (or ``--token``) makes them and prints them once; a restarted demo keeps accepting the ones
+    it printed before (an open page stays signed in) and cannot print them again. An earlier
+    version's plaintext ``demo-tokens.json`` is removed.
     """
     from dronefleet.ground.manager.auth import Role, new_token
 
     (state_dir / LEGACY_TOKENS).unlink(missing_ok=True)
+    names = {t["name"] for t in await book.state.list_tokens()}
+    if given is None and {"operator", "viewer"} <= names:
+        return None
     operator = given or new_token()
     viewer = new_token()
     await book.issue("operator", Role.OPERATOR, operator)
     await book.issue("viewer", Role.VIEWER, viewer)
     return operator, viewer
+
+
+def _external_drones(broker: Any, names: list[str], state_dir: Path) -> list[str]:
+    """Broker users for drones run apart from the demo (``--external-drone``): each password in
+    a file only its owner can read; the lines that tell how to start them."""
+    from dronefleet.messaging.broker_users import BrokerRole
+
+    folder = state_dir / "drone-secrets"
+    folder.mkdir(mode=0o700, exist_ok=True)
+    lines = []
+    for name in names:
+        url = broker.url_for(name, BrokerRole.DRONE)
+        secret = folder / f"{name}.secret"
+        fd = os.open(secret, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as out:
+            out.write(url.password + "\n")
+        lines.append(
+            f"drone {name} may join: dronefleet drone --id {name} --broker "
+            f"mqtt://{name}@{url.host}:{url.port} --broker-password-file {secret}"
+        )
+    return lines
 
 
 async def _demo(args: argparse.Namespace) -> int:
@@ -135,7 +169,8 @@ async def _demo(args: argparse.Namespace) -> int:
         try:
             ground.app.state.web_tiles = args.tiles
             assert ground.state is not None  # started above
-            operator, viewer = await _tokens(TokenBook(ground.state), state_dir, args.token)
+            tokens = await _tokens(TokenBook(ground.state), state_dir, args.token)
+            joining = _external_drones(broker, args.external_drone, state_dir)
             async with SimFleet() as fleet:
                 ids = [f"QUAD_{i + 1}" for i in range(args.drones)]
                 for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):
@@ -145,10 +180,16 @@ async def _demo(args: argparse.Namespace) -> int:
                     )
                 settle_heap()
                 print(f"broker: {broker.url}")
+                for line in joining:
+                    print(line)
                 print(f"web UI: {ground.http_url}/")
                 print(f"API docs: {ground.http_url}/docs")
-                print(f"operator token: {operator}")
-                print(f"viewer token: {viewer}")
+                if tokens is None:
+                    print("tokens: kept from the last run (only their hashes are stored)")
+                else:
+                    print(f"operator token: {tokens[0]}")
+                    print(f"viewer token: {tokens[1]}")
+                    print(f"sign in: {ground.http_url}/?token={tokens[0]}")
                 print(
                     f"{len(ids)} simulated drones ({', '.join(ids) or 'none'}); vehicle time runs "
                     f"{args.speedup:g}x at most. Ctrl-C stops everything.",

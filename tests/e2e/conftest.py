@@ -45,15 +45,20 @@ LINES = {
     "viewer": re.compile(r"^viewer token: (\S+)$"),
     "broker": re.compile(r"^broker: (\S+)$"),
 }
+#: A restarted demo prints no token: it keeps accepting the ones it printed before (issue 12).
+KEPT = re.compile(r"^tokens: kept from the last run")
+#: How a drone run apart (``--external-drone ID``) joins the demo's broker.
+JOIN = re.compile(r"^drone (\S+) may join: .* --broker (\S+) --broker-password-file (\S+)$")
 
 
 @dataclass
 class Demo:
     url: str
-    operator: str
-    viewer: str
     broker: str
     process: subprocess.Popen
+    operator: str | None = None  # None: a restarted demo, which keeps the last run's tokens
+    viewer: str | None = None
+    joins: dict[str, tuple[str, str]] = field(default_factory=dict)  # id -> (broker, secret)
     output: list[str] = field(default_factory=list)
 
     def stop(self) -> None:
@@ -106,23 +111,29 @@ def start_demo(
     args += ["--state-dir", str(state), "--no-mission", *options]
     process = start_process(args, state / log)
     found: dict[str, str] = {}
+    joins: dict[str, tuple[str, str]] = {}
     seen: list[str] = []
     deadline = time.monotonic() + 60
     assert process.stdout is not None
-    while len(found) < len(LINES) and time.monotonic() < deadline:
+    wanted = set(LINES)
+    while not wanted <= found.keys() and time.monotonic() < deadline:
         line = process.stdout.readline()
         if not line:
             break
         seen.append(line.rstrip())
+        if KEPT.match(line.strip()):
+            wanted -= {"operator", "viewer"}
+        if match := JOIN.match(line.strip()):
+            joins[match.group(1)] = (match.group(2), match.group(3))
         for key, pattern in LINES.items():
             if match := pattern.match(line.strip()):
                 found[key] = match.group(1)
-    if len(found) < len(LINES):
+    if not wanted <= found.keys():
         stop_process(process)
         err = (state / log).read_text()[-2000:]
         pytest.fail(f"dronefleet demo did not print its URL and tokens: {seen!r}\n{err}")
     # Keep draining stdout so the demo never blocks on a full pipe.
-    demo = Demo(process=process, **found)
+    demo = Demo(process=process, joins=joins, **found)
     threading.Thread(target=lambda: demo.output.extend(process.stdout), daemon=True).start()
     return demo
 
@@ -130,7 +141,7 @@ def start_demo(
 @pytest.fixture(scope="session")
 def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Demo]:
     """``dronefleet demo`` with 3 simulated drones, no demo mission, on a free loopback port."""
-    demo = start_demo(tmp_path_factory.mktemp("demo"))
+    demo = start_demo(tmp_path_factory.mktemp("demo"), "--external-drone", "LONE_1")
     yield demo
     demo.stop()
 

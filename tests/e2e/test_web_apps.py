@@ -91,7 +91,9 @@ def test_calling_from_a_phone_100_m_away_brings_a_drone(open_page, screenshot, d
 def test_a_drone_whose_process_stops_is_shown_lost(open_page, screenshot, demo, tmp_path):
     home = get(demo, "/drones")[0]["home"]
     where = f"{home['lat'] + 0.0003},{home['lon']},{home['alt_m']}"
-    args = [*_cli(), "drone", "--id", "LONE_1", "--fc", "sim", "--broker", demo.broker]
+    broker, secret = demo.joins["LONE_1"]  # its own broker credentials (issue 12)
+    args = [*_cli(), "drone", "--id", "LONE_1", "--fc", "sim", "--broker", broker]
+    args += ["--broker-password-file", secret]
     args += ["--speedup", "5", "--home", where, "--heartbeat-s", "1"]
     process = start_process(args, tmp_path / "drone.log")
     try:

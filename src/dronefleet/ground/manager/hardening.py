@@ -5,7 +5,7 @@
   streams in when it has none. The largest legitimate body, a 10,000-step mission, is ~1 MB.
 - **Headers a browser obeys**: a strict Content-Security-Policy for the web app (scripts only
   from this server; no inline script; styles inline only, as Leaflet positions with them; map
-  tiles from any https server the operator configures), framing refused, no MIME sniffing, no
+  tiles only from the tile server the ground was given), framing refused, no MIME sniffing, no
   referrer. The OpenAPI pages (``/docs``, ``/redoc``) load FastAPI's own CDN assets and get a
   policy that allows exactly those.
 - **Failed authentication is throttled per client** (:class:`AuthThrottle`, used by
@@ -23,6 +23,7 @@ import time
 from collections import deque
 from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
+from urllib.parse import urlsplit
 
 import orjson
 
@@ -40,7 +41,7 @@ WINDOW_S = 60.0
 
 APP_POLICY = (
     "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
-    "img-src 'self' data: blob: https:; connect-src 'self' ws: wss:; font-src 'self'; "
+    "img-src 'self' data: blob:{tiles}; connect-src 'self' ws: wss:; font-src 'self'; "
     "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'"
 )
 DOCS_POLICY = (
@@ -117,7 +118,7 @@ class Hardening:
 
     async def _serve(self, scope: Scope, receive: Receive, send: Send) -> None:
         path = scope.get("path", "")
-        policy = DOCS_POLICY if path in ("/docs", "/redoc") else APP_POLICY
+        policy = DOCS_POLICY if path in ("/docs", "/redoc") else _app_policy(scope)
         seen = 0
         started = False
 
@@ -146,6 +147,20 @@ class Hardening:
         except BodyTooLarge:
             if not started:
                 await _refuse(send, 413, f"request body over {MAX_BODY_BYTES} bytes")
+
+
+def _app_policy(scope: Scope) -> str:
+    """The web app's policy; map tiles may come only from the tile server the ground was given
+    (``--tiles``: the app's ``web_tiles``), and from nowhere else."""
+    app = scope.get("app")
+    template = getattr(getattr(app, "state", None), "web_tiles", None)
+    origin = ""
+    if isinstance(template, str):
+        parts = urlsplit(template.replace("{s}", "a"))
+        if parts.scheme in ("http", "https") and parts.netloc:
+            host = parts.netloc.replace("a.", "*.", 1) if "{s}" in template else parts.netloc
+            origin = f" {parts.scheme}://{host}"
+    return APP_POLICY.format(tiles=origin)
 
 
 def _content_length(headers: dict[bytes, bytes]) -> int | None:
