@@ -89,3 +89,12 @@ async def test_web_files_are_served_with_their_types_and_revalidated(ground, api
     assert (await api.get("/web/css/app.css")).headers["content-type"].startswith("text/css")
     for path in ("/web/../pyproject.toml", "/web/%2e%2e/ground/state.py", "/web/nope.js"):
         assert (await api.get(path)).status_code == 404, path
+
+
+async def test_a_token_in_an_api_url_is_not_looked_at(ground):
+    """Only the WebSocket and the seed's /control take ?token= (a URL ends in logs)."""
+    async with httpx.AsyncClient(base_url=ground.http_url, timeout=10) as client:
+        r = await client.get("/api/v1/drones", params={"token": ground.operator_token})
+        assert r.status_code == 401
+        r = await client.get("/api/v1/drones", headers={"X-API-Token": ground.operator_token})
+        assert r.status_code == 200

@@ -2,8 +2,9 @@
 
 Tokens are random strings handed out once; the state store keeps only their SHA-256 (a token is
 32 random bytes, so a plain hash is enough). A request carries its token as
-``Authorization: Bearer <token>``, ``X-API-Token: <token>`` or ``?token=`` (for WebSockets and
-the seed's ``/control`` links). Missing or unknown token: 401; a role too low: 403.
+``Authorization: Bearer <token>`` or ``X-API-Token: <token>``; ``?token=`` only on the live
+stream's WebSocket and the seed's ``/control`` links. Missing or unknown token: 401; a role too
+low: 403.
 """
 
 from __future__ import annotations
@@ -52,10 +53,18 @@ def hash_token(token: str) -> str:
 
 
 def token_from(conn: HTTPConnection) -> str | None:
+    """The request's token: a header, or ``?token=`` only where a header cannot be set (the
+    browser's WebSocket) or the seed's clients put it (``/control``). A token in the URL of an
+    ordinary API call would end in logs and browser histories, so it is not looked at."""
     auth = conn.headers.get("authorization", "")
     if auth.lower().startswith("bearer "):
         return auth[7:].strip() or None
-    return conn.headers.get("x-api-token") or conn.query_params.get("token") or None
+    header = conn.headers.get("x-api-token")
+    if header:
+        return header
+    if conn.scope.get("type") == "websocket" or conn.url.path == "/control":
+        return conn.query_params.get("token") or None
+    return None
 
 
 class TokenBook:
