@@ -245,7 +245,7 @@ def test_the_prefix_reach_agrees_with_the_interval_sweep(fly):
         ]
     )
     usable = np.array([(s.battery_pct - 20) / 100 * 5500 for s in slots])
-    search = allocation._Search(r, start, usable, allocation.DEFAULT_MODEL)
+    search = allocation._Search(r, start, usable, allocation.DEFAULT_MODEL, list(range(4)))
     total = float(search.prefix[-1])
     for limit in np.linspace(0.05, 1.2, 12) * total / 2:
         for order in itertools.permutations(range(4)):

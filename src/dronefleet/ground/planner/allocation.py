@@ -177,18 +177,25 @@ def _start_costs(
 # 12.5 s to a few tens of ms. Starts that are unusable give last(b) < b <= R and so never count.
 class _Search:
     def __init__(
-        self, r: _Route, start: np.ndarray, usable_mah: np.ndarray, model: VehicleModel
+        self,
+        r: _Route,
+        costs: np.ndarray,
+        usable_mah: np.ndarray,
+        model: VehicleModel,
+        place: list[int],
     ) -> None:
-        self.r, self.start = r, start  # start[d, m, b]: drone d as m-th share, from waypoint b
+        # start[d, k, b]: drone d at the k-th distinct height, from waypoint b; the m-th share
+        # flies at height place[m] (shares at one height are costed once, not once each).
+        self.r, self.start, self.place = r, costs, place
         self.prefix, self.prefix_mah = r.prefix, r.prefix_mah
         self.n = len(r.xy)
         self.allowed = np.append(r.starts, True)
         # What each drone may spend on its share's work, less what getting there costs.
         transit_a = model.hover_current_a * _TRANSIT_CURRENT
-        self.budget_mah = usable_mah[:, None, None] - start * transit_a / 3.6
+        self.budget_mah = usable_mah[:, None, None] - costs * transit_a / 3.6
         # g[d, m, b] (see above), -inf where a share may not begin; its running maximum over b
         # and where that maximum is reached.
-        g = self.prefix - start - r.hold_s
+        g = self.prefix - costs - r.hold_s
         g = np.where(r.starts, g, -np.inf)
         self.g_max = np.maximum.accumulate(g, axis=2)
         at = np.where(g >= self.g_max, np.arange(self.n), 0)
@@ -198,7 +205,7 @@ class _Search:
 
     def _last_by_energy(self, d: int, m: int, b: int) -> int:
         """The last waypoint a share of drone ``d`` (m-th) from ``b`` can afford."""
-        left = float(self.budget_mah[d, m, b] - self.r.hold_mah[b])
+        left = float(self.budget_mah[d, self.place[m], b] - self.r.hold_mah[b])
         if left < 0:
             return b - 1
         return bisect.bisect_right(self._e, self._e[b] + left) - 1
@@ -207,10 +214,11 @@ class _Search:
         """The furthest start reachable once drone ``d`` (m-th share) has taken a chunk finishing
         by ``limit``, when the first ``m`` drones reach every allowed start up to ``reach``."""
         top = min(reach, self.n - 1)
-        best = float(self.g_max[d, m, top])
+        k = self.place[m]
+        best = float(self.g_max[d, k, top])
         if best == -np.inf:
             return reach
-        b = int(self.g_arg[d, m, top])
+        b = int(self.g_arg[d, k, top])
         last = bisect.bisect_right(self._p, best + limit + 1e-9) - 1
         if self._last_by_energy(d, m, b) < last:  # the battery binds: look at every start
             last = self._exact(reach, d, m, limit)
@@ -220,8 +228,9 @@ class _Search:
         top = min(reach, self.n - 1)
         bs = np.flatnonzero(self.r.starts[: top + 1])
         p, e = self.prefix, self.prefix_mah
-        budget = limit - self.start[d, m, bs] - self.r.hold_s[bs]
-        energy = self.budget_mah[d, m, bs] - self.r.hold_mah[bs]
+        k = self.place[m]
+        budget = limit - self.start[d, k, bs] - self.r.hold_s[bs]
+        energy = self.budget_mah[d, k, bs] - self.r.hold_mah[bs]
         last = np.minimum(
             np.searchsorted(p, p[bs] + budget + 1e-9, side="right") - 1,
             np.searchsorted(e, e[bs] + energy, side="right") - 1,
@@ -236,24 +245,38 @@ class _Search:
         if e == 0 or bs.size == 0:
             return e
         r = self.r
-        finish = self.start[d, m, bs] + r.hold_s[bs] + self.prefix[e - 1] - self.prefix[bs]
+        k = self.place[m]
+        finish = self.start[d, k, bs] + r.hold_s[bs] + self.prefix[e - 1] - self.prefix[bs]
         mah = r.hold_mah[bs] + self.prefix_mah[e - 1] - self.prefix_mah[bs]
-        ok = (finish <= limit + 1e-6) & (mah <= self.budget_mah[d, m, bs] + 1e-6)
+        ok = (finish <= limit + 1e-6) & (mah <= self.budget_mah[d, k, bs] + 1e-6)
         return int(bs[np.argmax(ok)]) if ok.any() else e
 
     def feasible(self, limit: float, orders: list[tuple[int, ...]]) -> tuple[int, ...] | None:
-        memo: dict[tuple[int, ...], int] = {(): 0}
+        # Orders come as permutations in order, so one shares a prefix with the one before:
+        # the reaches of that prefix are kept and only the rest is stepped (a walk of the tree
+        # of prefixes, without a dictionary of them).
+        previous: tuple[int, ...] = ()
+        reaches = [0]
         for order in orders:
-            for k in range(1, len(order) + 1):
-                key = order[:k]
-                if key not in memo:
-                    memo[key] = self.step(memo[order[: k - 1]], order[k - 1], k - 1, limit)
-                if memo[key] >= self.n:
+            same = 0
+            while same < min(len(order), len(previous)) and order[same] == previous[same]:
+                same += 1
+            del reaches[same + 1 :]
+            if reaches[-1] >= self.n:
+                return order
+            for k in range(same, len(order)):
+                reaches.append(self.step(reaches[-1], order[k], k, limit))
+                if reaches[-1] >= self.n:
                     return order
+            previous = order
         return None
 
     def finish(self, d: int, m: int, b: int, e: int) -> float:
-        return float(self.start[d, m, b] + self.r.hold_s[b] + self.prefix[e - 1] - self.prefix[b])
+        return self.cost(d, m, b) + float(self.r.hold_s[b] + self.prefix[e - 1] - self.prefix[b])
+
+    def cost(self, d: int, m: int, b: int) -> float:
+        """Seconds until drone ``d``, flying the ``m``-th share, has reached waypoint ``b``."""
+        return float(self.start[d, self.place[m], b])
 
 
 def split_route(
@@ -279,20 +302,19 @@ def split_route(
         raise ValueError("no drones to share the route among")
     r = _route(route, holds_s, altitude_m, model)
     offsets = altitude_offsets(len(drones), altitude_step_m)
+    # Shares flown at one height cost the same whatever their place: cost each height once.
+    heights = sorted(set(offsets))
     start = np.array(
-        [
-            [_start_costs(r, slot, off, model, climb_while_flying) for off in offsets]
-            for slot in drones
-        ]
+        [[_start_costs(r, slot, h, model, climb_while_flying) for h in heights] for slot in drones]
     )
+    place = [heights.index(off) for off in offsets]
     usable = np.array([(s.battery_pct - reserve_pct) / 100 * model.capacity_mah for s in drones])
-    search = _Search(r, start, usable, model)
+    search = _Search(r, start, usable, model, place)
     by_distance = sorted(
         range(len(drones)), key=lambda d: float(start[d, 0, 0]) if len(r.xy) else 0.0
     )
     orders = list(itertools.islice(itertools.permutations(by_distance), max_orders))
-    hi = float(start.max() + r.hold_s.max() + search.prefix[-1]) + 1.0  # any share ends by then
-    lo = 0.0
+    lo, hi = _bracket(search, orders, len(drones))
     best = search.feasible(hi, orders)
     if best is None:
         raise ValueError(
@@ -306,6 +328,25 @@ def split_route(
         else:
             hi, best = mid, found
     return _assign(search, drones, best, hi, offsets)
+
+
+def _bracket(search: _Search, orders: list[tuple[int, ...]], drones: int) -> tuple[float, float]:
+    """A lower and an upper bound of the makespan, close enough to save most of a bisection
+    from zero to "every share ends by then" (18 rounds to about 10 on the 1 km² field).
+
+    Shares together do all the work but the legs to their first waypoints, so the latest cannot
+    end before the work over the drones less the longest leg; an upper bound is looked for
+    above that, doubling the margin, and "every share ends by then" is the last resort."""
+    r, prefix = search.r, search.prefix
+    last = float(search.start.max() + r.hold_s.max() + prefix[-1]) + 1.0  # any share ends by then
+    work = float(prefix[-1] + r.hold_s[0])
+    lo = max(0.0, work / drones - float(r.leg_s.max()))
+    margin = max(float(search.start.min(axis=2).max()), 1.0)
+    while lo + margin < last:
+        if search.feasible(lo + margin, orders) is not None:
+            return lo, lo + margin
+        lo, margin = lo + margin, margin * 2.0
+    return lo, last
 
 
 def _assign(
@@ -327,7 +368,7 @@ def _assign(
     out = []
     for m, d, b, e in sorted(chunks):
         done = search.finish(d, m, b, e) if e > b else 0.0
-        start = float(search.start[d, m, b]) if e > b else 0.0
+        start = search.cost(d, m, b) if e > b else 0.0
         out.append(Assignment(drones[d].drone_id, list(range(b, e)), done, offsets[m], start))
     return out
 
@@ -347,7 +388,7 @@ def seed_equal_split(
         raise ValueError("no drones to share the route among")
     r = _route(route, holds_s, altitude_m, model)
     start = np.array([[_start_costs(r, s, 0.0, model, climb_while_flying)] for s in drones])
-    search = _Search(r, start, np.full(len(drones), np.inf), model)
+    search = _Search(r, start, np.full(len(drones), np.inf), model, [0] * len(drones))
     size = search.n // len(drones)
     out = []
     for k, slot in enumerate(drones):

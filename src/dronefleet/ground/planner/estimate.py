@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
-from dronefleet.ground.planner.estimate_units import fly_unit, targets, unit_at
+from dronefleet.ground.planner.estimate_units import Keys, Replay, Units, fly_unit
 from dronefleet.vehicle.battery import Battery
 from dronefleet.vehicle.kinematics import FlightLimits, Kinematics
 
@@ -401,21 +401,25 @@ def estimate(
         state.armed = True  # armed by someone else: do not charge arming it never asked for
     per_step: list[float] = []
     per_step_mah: list[float] = []
-    cache: dict[tuple, tuple] = {}  # repeated units, flown once (estimate_units.py)
-    ned = targets(steps, home)
+    cache: dict[tuple, Replay] = {}  # repeated units, flown once (estimate_units.py)
+    keys = Keys()
+    found = Units(steps, home, keys)
+    known: int | None = None  # the state's key part when the last unit was replayed
     i = 0
     while i < len(steps):
-        step = steps[i]
-        unit = unit_at(steps, i)
-        if unit is not None:
-            for duration, charge in fly_unit(state, ned[i], unit, home, cache):
-                per_step.append(duration)
-                per_step_mah.append(charge / 3.6)
-            i += len(unit)
+        k = found.at.get(i)
+        if k is not None:
+            unit = found.items[k]
+            replay = fly_unit(state, found.targets[k], unit, steps, home, cache, keys, known)
+            per_step.extend(replay.seconds)
+            per_step_mah.extend(replay.mah)
+            known = replay.state_key
+            i = unit.end
             continue
         before = state.charge_as
-        per_step.append(state.run(step, home))
+        per_step.append(state.run(steps[i], home))
         per_step_mah.append((state.charge_as - before) / 3.6)
+        known = None
         i += 1
     energy = state.charge_as / 3.6
     used = 100.0 * energy / model.capacity_mah

@@ -8,12 +8,15 @@ unit's outcome does not depend on where it is flown, only on the state relative 
 once per distinct key (offsets and speeds to the millimetre, the hold steps as given) and
 replayed by translation afterwards. A state the key does not describe (landing, not armed,
 notes written) is always flown. The navigate targets come in already converted to the local
-frame (:func:`targets`, vectorised), so a replayed unit costs a key and a dictionary lookup.
+frame (:func:`targets`, vectorised), and the units' bounds and step signatures are found in one
+pass over the commands (:func:`units`), so a replayed unit costs four roundings, a dictionary
+lookup and two list extensions.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -25,81 +28,133 @@ _MM = 1000.0  # keys count millimetres and millimetres per second (round(x * _MM
 HOLDS = frozenset({"takepic", "sleep", "read_sensors"})
 
 
-def targets(steps: list[dict[str, Any]], home: LLA) -> dict[int, tuple[float, float]]:
-    """North and east of home of every navigate step, by step index, in one vectorised pass."""
-    index = [i for i, s in enumerate(steps) if s.get("command") == "navigate"]
-    if not index:
-        return {}
-    lat = np.array([steps[i]["lat"] for i in index], dtype=float)
-    lon = np.array([steps[i]["lon"] for i in index], dtype=float)
-    dlon = (lon - home.lon + 180.0) % 360.0 - 180.0
-    north, east = local_frame(home).horizontal_many(lat, dlon)
-    return dict(zip(index, zip(north.tolist(), east.tolist(), strict=True), strict=True))
+class Unit(NamedTuple):
+    """Steps ``start``..``end`` (navigate, wait_for_flight, holds) and what fixes their outcome
+    besides the vehicle's state (the navigate's height, the wait's and holds' values), as the
+    number of that signature among the route's (a key of small integers hashes fast)."""
+
+    start: int
+    end: int
+    signature: int
+
+
+@dataclass(frozen=True)
+class Replay:
+    """A unit flown once: per-step seconds and mAh, and the state after it relative to before
+    (position moved, velocities, height, target offset) with its key part already rounded."""
+
+    seconds: list[float]
+    mah: list[float]
+    charge_as: float
+    moved: tuple[float, float]
+    velocity: tuple[float, float, float]
+    height: float
+    target: tuple[float, float]
+    target_h: float | None
+    state_key: int
+
+
+class Keys:
+    """Numbers for the signatures and vehicle states met in one estimate."""
+
+    def __init__(self) -> None:
+        self._known: dict[tuple, int] = {}
+
+    def number(self, value: tuple) -> int:
+        return self._known.setdefault(value, len(self._known))
+
+
+class Units:
+    """The units of a list of steps, in order: their bounds and signatures, and their navigate
+    targets north and east of home (converted in one vectorised pass)."""
+
+    def __init__(self, steps: list[dict[str, Any]], home: LLA, keys: Keys) -> None:
+        commands = [s.get("command") for s in steps]
+        self.items: list[Unit] = []
+        for i, command in enumerate(commands):
+            if command != "navigate" or i + 1 >= len(commands):
+                continue
+            if commands[i + 1] != "wait_for_flight":
+                continue
+            end = i + 2
+            while end < len(commands) and commands[end] in HOLDS:
+                end += 1
+            wait = steps[i + 1]
+            holds = [(commands[k], steps[k].get("value")) for k in range(i + 2, end)]
+            signature = (
+                steps[i].get("altitude_delta"),
+                wait.get("horizontal_tolerance_m"),
+                wait.get("vertical_tolerance_m"),
+                *holds,
+            )
+            self.items.append(Unit(i, end, keys.number(signature)))
+        self.at = {u.start: k for k, u in enumerate(self.items)}
+        lat = np.array([steps[u.start]["lat"] for u in self.items], dtype=float)
+        lon = np.array([steps[u.start]["lon"] for u in self.items], dtype=float)
+        dlon = (lon - home.lon + 180.0) % 360.0 - 180.0
+        north, east = local_frame(home).horizontal_many(lat, dlon)
+        self.targets = list(zip(north.tolist(), east.tolist(), strict=True))
+
+
+def state_key(state: Any, keys: Keys) -> int:
+    """The part of a key that describes the vehicle alone (velocities and heights, rounded)."""
+    h = state.target_h
+    return keys.number((
+        round(state.vn * _MM), round(state.ve * _MM), round(state.vz * _MM),
+        round(state.h * _MM), h and round(h * _MM),
+    ))  # fmt: skip
 
 
 def _key(
-    state: Any,
-    ned: tuple[float, float],
-    nav: dict[str, Any],
-    wait: dict[str, Any],
-    holds: tuple[dict[str, Any], ...],
+    state: Any, ned: tuple[float, float], unit: Unit, known: int | None, keys: Keys
 ) -> tuple | None:
     if not state.in_air or state.landing or not state.armed or state.target is None:
         return None
     tn, te = state.target
-    n, e, h, th = state.n, state.e, state.target_h, nav.get("altitude_delta")
+    n, e = state.n, state.e
     return (
-        round((ned[0] - n) * _MM), round((ned[1] - e) * _MM), th and round(th * _MM),
+        round((ned[0] - n) * _MM), round((ned[1] - e) * _MM),
         round((tn - n) * _MM), round((te - e) * _MM),
-        round(state.vn * _MM), round(state.ve * _MM), round(state.vz * _MM),
-        round(state.h * _MM), h and round(h * _MM),
-        wait.get("horizontal_tolerance_m"), wait.get("vertical_tolerance_m"),
-        tuple((s.get("command"), s.get("value")) for s in holds),
+        known if known is not None else state_key(state, keys),
+        unit.signature,
     )  # fmt: skip
 
 
 def fly_unit(
     state: Any,
     ned: tuple[float, float],
-    unit: tuple[dict[str, Any], ...],
+    unit: Unit,
+    steps: list[dict[str, Any]],
     home: LLA,
-    cache: dict[tuple, tuple],
-) -> list[tuple[float, float]]:
-    """Run ``unit`` (navigate, wait_for_flight, holds...) on ``state``: (duration,
-    ampere-seconds) of each step. ``ned`` is the navigate target in the home frame."""
-    nav, wait, holds = unit[0], unit[1], unit[2:]
-    key = _key(state, ned, nav, wait, holds)
+    cache: dict[tuple, Replay],
+    keys: Keys,
+    known: int | None = None,
+) -> Replay:
+    """Run ``unit`` on ``state`` (replayed when an equal one was flown); ``ned`` is its
+    navigate target in the home frame, ``known`` the state's :func:`state_key` when the last
+    unit was a replay (its velocities and heights are then the replay's, exactly)."""
+    key = _key(state, ned, unit, known, keys)
     hit = cache.get(key) if key is not None else None
     if hit is not None:
-        costs, dn, de, vn, ve, h, vz, tn, te, th = hit
         n0, e0 = state.n, state.e
-        state.n, state.e, state.vn, state.ve, state.h, state.vz = n0 + dn, e0 + de, vn, ve, h, vz
-        state.target = (n0 + tn, e0 + te)
-        state.target_h = th
-        state.charge_as += sum(c for _, c in costs)
-        return costs
-    n0, e0, notes = state.n, state.e, len(state.notes)
-    costs = []
-    for step in unit:
+        state.n, state.e = n0 + hit.moved[0], e0 + hit.moved[1]
+        state.vn, state.ve, state.vz = hit.velocity
+        state.h, state.target_h = hit.height, hit.target_h
+        state.target = (n0 + hit.target[0], e0 + hit.target[1])
+        state.charge_as += hit.charge_as
+        return hit
+    n0, e0, notes, charge0 = state.n, state.e, len(state.notes), state.charge_as
+    seconds, mah = [], []
+    for step in steps[unit.start : unit.end]:
         before = state.charge_as
-        duration = state.run(step, home)
-        costs.append((duration, state.charge_as - before))
+        seconds.append(state.run(step, home))
+        mah.append((state.charge_as - before) / 3.6)
+    tn, te = state.target if state.target is not None else (state.n, state.e)
+    replay = Replay(
+        seconds, mah, state.charge_as - charge0, (state.n - n0, state.e - e0),
+        (state.vn, state.ve, state.vz), state.h, (tn - n0, te - e0), state.target_h,
+        state_key(state, keys),
+    )  # fmt: skip
     if key is not None and len(state.notes) == notes and state.target is not None:
-        tn, te = state.target
-        cache[key] = (
-            costs, state.n - n0, state.e - e0, state.vn, state.ve, state.h, state.vz,
-            tn - n0, te - e0, state.target_h,
-        )  # fmt: skip
-    return costs
-
-
-def unit_at(steps: list[dict[str, Any]], i: int) -> tuple[dict[str, Any], ...] | None:
-    """The unit starting at step ``i`` (navigate, wait_for_flight, holds), or None."""
-    if steps[i].get("command") != "navigate" or i + 1 >= len(steps):
-        return None
-    if steps[i + 1].get("command") != "wait_for_flight":
-        return None
-    end = i + 2
-    while end < len(steps) and steps[end].get("command") in HOLDS:
-        end += 1
-    return tuple(steps[i:end])
+        cache[key] = replay
+    return replay

@@ -108,6 +108,12 @@ def transit(path: list[XY]) -> list[RoutePoint]:
     return [RoutePoint(x, y, Kind.TRANSIT) for x, y in path[1:-1]]
 
 
+def route_xy(points: list[RoutePoint]) -> np.ndarray:
+    """The points' coordinates as an (n, 2) array."""
+    flat = np.fromiter(itertools.chain.from_iterable((p.x, p.y) for p in points), float)
+    return flat.reshape(-1, 2)
+
+
 def polyline(points: list[RoutePoint]) -> shapely.Geometry:
     xy = [pt.xy for pt in points]
     return LineString(xy) if len(xy) > 1 else Point(xy[0])
@@ -143,9 +149,8 @@ class GapFiller:
                 continue  # float dust where the buffer meets the edge
             dense = shapely.segmentize(gap, 2 * tol)
             coords = np.vstack([np.asarray(r.coords) for r in (dense.exterior, *dense.interiors)])
-            far = shapely.distance(shapely.points(coords), _near(path, gap, self.radius_m + tol))
-            k = int(np.argmax(far))
-            if far[k] > self.radius_m + 1.5 * tol:
+            k, far = _farthest(coords, _near(path, gap, self.radius_m + tol))
+            if far > self.radius_m + 1.5 * tol:
                 tip = coords[k]
             else:  # the boundary is covered; is the inside (a strip between two passes)?
                 circle = shapely.maximum_inscribed_circle(gap, tol / 4)
@@ -167,7 +172,7 @@ class GapFiller:
             gaps = self.gaps(points, area)
             if not gaps:
                 return points, 0.0
-            xy = np.array([p.xy for p in points])
+            xy = route_xy(points)
             # Never inside a fly-through swath (that would break the camera run).
             allowed = np.array([p.kind is not Kind.SWATH_START for p in points])
             inserts = [self._spur(points, xy, allowed, near, far, router) for near, far, _ in gaps]
@@ -212,6 +217,29 @@ def _near(path: shapely.Geometry, gap: Polygon, reach_m: float) -> shapely.Geome
     return path if part.is_empty else part
 
 
+#: Boundary samples measured first by :func:`_farthest`: one in this many.
+COARSE = 16
+
+
+def _farthest(coords: np.ndarray, path: shapely.Geometry) -> tuple[int, float]:
+    """The first of ``coords`` farthest from ``path``, and its distance.
+
+    A comb's gaps are long and sampled every few centimetres: measuring every sample was half
+    of its planning. Distance to the path changes no faster than position (|d(p) - d(q)| <=
+    |p - q|), so one sample in COARSE is measured first; a sample can only be the farthest if
+    the measured one before it plus the way between them reaches the farthest measured, and
+    only those are measured too. The answer is the one measuring every sample would give."""
+    coarse = np.arange(0, len(coords), COARSE)
+    d = shapely.distance(shapely.points(coords[coarse]), path)
+    best = float(d.max())
+    owner = np.arange(len(coords)) // COARSE
+    bound = d[owner] + np.hypot(*(coords - coords[coarse][owner]).T)
+    maybe = np.flatnonzero(bound >= best)
+    exact = shapely.distance(shapely.points(coords[maybe]), path)
+    k = int(np.argmax(exact))
+    return int(maybe[k]), float(exact[k])
+
+
 #: Route points per piece when buffering the route (see :func:`_band`).
 BAND_PIECE = 16
 
@@ -223,7 +251,7 @@ STRAIGHT_M = 1e-6
 def _corners(points: list[RoutePoint]) -> np.ndarray:
     """The route's vertices without the ones on a straight run (a stop-mode swath is a point
     every few metres on one line): the same line, in a fraction of the vertices."""
-    xy = np.array([(p.x, p.y) for p in points], dtype=float)
+    xy = route_xy(points)
     if len(xy) < 3:
         return xy
     line = shapely.simplify(LineString(xy), STRAIGHT_M, preserve_topology=False)

@@ -45,9 +45,11 @@ class LocalProjection:
         p = self.frame.to_lla(NED(y, x, 0.0))
         return LLA(p.lat, p.lon, alt_m)
 
-    def to_lla_many(self, xy: list[tuple[float, float]], alt_m: float = 0.0) -> list[LLA]:
+    def to_lla_many(
+        self, xy: list[tuple[float, float]] | np.ndarray, alt_m: float = 0.0
+    ) -> list[LLA]:
         """:meth:`to_lla` of many points at once (vectorised: a plan's waypoints)."""
-        if not xy:
+        if len(xy) == 0:
             return []
         x, y = np.asarray(xy, dtype=float).T
         lat, lon = self.frame.to_lla_many(y, x)

@@ -8,8 +8,9 @@ vertex, so the person drawing the area decides where the work begins).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from dronefleet.ground.planner.coverage.decompose import Cell
 
@@ -53,21 +54,27 @@ class BoustrophedonOrderer:
     """Cells in greedy nearest-entry order, back and forth inside each."""
 
     def order(self, cells: list[Cell], start: XY) -> list[Pass]:
-        todo = list(cells)
+        # Entries of every cell: (first swath, last swath) x (left end, right end), in the
+        # order they are tried; the nearest one left wins, the first of those within 1e-9 m of
+        # it on a tie. Measured all at once: 669 cells (a 2000-vertex gear) were 900,000
+        # distances in a Python loop, a seventh of its planning.
+        entries = np.array(
+            [
+                [(seg[2], seg[1]), (seg[3], seg[1])]
+                for cell in cells
+                for seg in (cell.segments[0], cell.segments[-1])
+            ],
+            dtype=float,
+        ).reshape(len(cells) * 4, 2)
+        left = np.ones(len(cells) * 4, dtype=bool)
         here = start
         route: list[Pass] = []
-        while todo:
-            best: tuple[float, int, bool, bool] | None = None
-            for k, cell in enumerate(todo):
-                for reverse in (False, True):
-                    _, y, x0, x1 = cell.segments[-1] if reverse else cell.segments[0]
-                    for left_first in (True, False):
-                        d = math.dist(here, (x0 if left_first else x1, y))
-                        if best is None or d < best[0] - 1e-9:
-                            best = (d, k, reverse, left_first)
-            assert best is not None
-            _, k, reverse, left_first = best
-            passes = _sweep(todo.pop(k), reverse, left_first)
+        for _ in cells:
+            d = np.where(left, np.hypot(entries[:, 0] - here[0], entries[:, 1] - here[1]), np.inf)
+            pick = int(np.argmax(d <= d.min() + 1e-9))
+            k, reverse, left_first = pick // 4, bool(pick % 4 // 2), pick % 2 == 0
+            left[4 * k : 4 * k + 4] = False
+            passes = _sweep(cells[k], reverse, left_first)
             route.extend(passes)
             here = passes[-1].end
         return route

@@ -74,7 +74,10 @@ class InAreaRouter:
             known[corner] = self._seen[u, vs[corner]]
         ask = known < 0
         if ask.any():
-            segs = np.stack([np.broadcast_to(pts[u], (int(ask.sum()), 2)), pts[vs[ask]]], axis=1)
+            ends = vs[ask]
+            segs = np.empty((len(ends), 2, 2))
+            segs[:, 0] = pts[u]
+            segs[:, 1] = pts[ends]
             known[ask] = shapely.covers(self._cover, shapely.linestrings(segs))
             if u < m:
                 both = vs[ask] < m
@@ -106,11 +109,10 @@ class InAreaRouter:
                     continue  # a stale arrival
                 if u == dst:
                     break
-                others = np.flatnonzero(np.arange(m + 2) != u)
-                others = others[others != src]
-                keys = np.hypot(*(pts[others] - pts[u]).T) + to_b[others]
-                rank = np.argsort(keys, kind="stable")
-                order[u] = (others[rank], keys[rank])
+                keys = np.hypot(pts[:, 0] - pts[u, 0], pts[:, 1] - pts[u, 1]) + to_b
+                keys[u] = keys[src] = math.inf  # neither is a neighbour to offer
+                rank = np.argsort(keys, kind="stable")[: m + 1 if u == src else m]
+                order[u] = (rank, keys[rank])
                 heapq.heappush(heap, (g[u] + float(keys[rank[0]]), tie, 1, u, 0))
                 tie += 1
                 continue
