@@ -22,7 +22,7 @@ from shapely.geometry import LineString, Point, Polygon
 from dronefleet.geo.ned import LocalFrame
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.planner import allocation
-from dronefleet.ground.planner.coverage import AreaSpec, CoveragePlan, plan_area
+from dronefleet.ground.planner.coverage import AreaSpec, CoveragePlan, path, plan_area
 from dronefleet.ground.planner.coverage.angle import AngleChooser
 from dronefleet.ground.planner.coverage.clip import clip, edges_of
 from dronefleet.ground.planner.coverage.router import InAreaRouter, _reflex_corners
@@ -256,3 +256,34 @@ def test_the_prefix_reach_agrees_with_the_interval_sweep(fly):
                 sweep = sweep_step(search, sweep, d, m, float(limit))
                 prefix = search.allowed & (np.arange(search.n + 1) <= reach)
                 assert (prefix == sweep).all()
+
+
+@SETTINGS
+@given(st.integers(0, 2**31 - 1), st.integers(1, 400))
+def test_the_farthest_sample_is_the_one_measuring_every_sample_finds(seed, count):
+    """The gap filler measures one boundary sample in 16 and bounds the rest (path._farthest)."""
+    rng = np.random.default_rng(seed)
+    walk = np.cumsum(rng.normal(0.0, 0.05, size=(count, 2)), axis=0)  # samples a few cm apart
+    route = LineString(rng.uniform(-2, 2, size=(int(rng.integers(2, 8)), 2)))
+    every = shapely.distance(shapely.points(walk), route)
+    k, far = path._farthest(walk, route)
+    assert k == int(np.argmax(every)) and far == every.max()
+
+
+@pytest.mark.parametrize("step_m", [0.0, 3.0])
+def test_the_bracketed_split_finds_the_makespan_bisecting_from_zero_finds(step_m, monkeypatch):
+    plan = plan_area(AreaSpec(polygon=latlon(comb(200)), spacing_m=5.0, action="takepic"))
+    team = [
+        allocation.DroneSlot(f"D{i}", FRAME.to_lla(NED(-20.0 * i, 10.0 * i, -10.0)), True, 90.0)
+        for i in range(4)
+    ]
+    shares = allocation.split_route(plan, team, altitude_step_m=step_m)
+    monkeypatch.setattr(  # the bracket every share ends within, as before it
+        allocation, "_bracket", lambda s, o, d: (0.0, float(s.start.max() + s.prefix[-1]) + 1e3)
+    )
+    plain = allocation.split_route(plan, team, altitude_step_m=step_m)
+    precision = max(allocation._PRECISION_S, 1e-4 * allocation.makespan_s(plain))
+    assert allocation.makespan_s(shares) == pytest.approx(
+        allocation.makespan_s(plain), abs=2 * precision
+    )
+    assert sum(len(a.waypoint_indices) for a in shares) == len(plan.waypoints)
