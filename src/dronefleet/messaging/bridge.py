@@ -3,8 +3,17 @@
 The drone's Mosquitto pulls its own ``control``, ``mission`` and ``gear`` requests from the ground
 broker and pushes everything its components publish on ``+/<channel>/out`` to it. Beyond the
 listing, the file sets what a bridge to RabbitMQ's MQTT adapter needs (no Mosquitto-private
-protocol bit, no ``$SYS`` notifications) and a clean session, so a drone that restarts does not
-receive commands queued while it was away.
+protocol bit, no ``$SYS`` notifications).
+
+Sessions (issue 13). The bridge's sessions persist on both brokers (``cleansession false``,
+``local_cleansession false``), so while the link is down the drone's broker queues for the
+ground what must not be lost — progress, alarms, answers: :data:`KEPT_CHANNELS`, bridged at QoS 1
+— up to :data:`MAX_QUEUED` messages, and hands them over when the link is back (a ground broker
+that was itself restarted gets them too). Telemetry and heartbeats cross at QoS 0: a stale
+position or "alive" is worth nothing later, and queued they would fill the queue. Requests to the
+drone are pulled at QoS 0 as well, so the ground broker never queues them for the bridge: a
+takeoff sent during an outage must not reach the drone a minute later (the ground's request has
+timed out and said so); the ground asks again if it still wants it.
 """
 
 from __future__ import annotations
@@ -24,6 +33,11 @@ from dronefleet.messaging.topics import (
 IN_CHANNELS = (Channel.CONTROL, Channel.MISSION, Channel.GEAR)
 #: Channels the drone sends to the ground (pushed out by the bridge), in the listing's order.
 OUT_CHANNELS = (*IN_CHANNELS, *(c for c in Channel if c in OUT_ONLY))
+#: Channels the drone's broker keeps for the ground while the link is down (QoS 1).
+KEPT_CHANNELS = frozenset({Channel.CONTROL, Channel.MISSION, Channel.GEAR, Channel.ALARMS})
+#: Messages the drone's broker queues for the ground while the link is down: a 10,000-step
+#: mission's progress (two reports a step) with room to spare; past it Mosquitto drops new ones.
+MAX_QUEUED = 50_000
 
 
 def _quote_free(name: str, value: str) -> str:
@@ -42,6 +56,7 @@ def bridge_config(
     connection: str = "groundRelay",
     listener: tuple[str, int] | None = None,
     qos: int = 1,
+    max_queued: int = MAX_QUEUED,
 ) -> str:
     """The bridge section for ``drone_id`` (a full ``mosquitto.conf`` if ``listener`` is given)."""
     check_drone_id(drone_id)
@@ -73,11 +88,15 @@ def bridge_config(
         "bridge_protocol_version mqttv311",
         "try_private false",
         "notifications false",
-        "cleansession true",
+        "cleansession false",
+        "local_cleansession false",
         "start_type automatic",
         "restart_timeout 1 10",
         "keepalive_interval 10",
+        f"max_queued_messages {max_queued}",
     ]
-    lines += [f'topic {topic(drone_id, c, Direction.IN)} in {qos} "" ""' for c in IN_CHANNELS]
-    lines += [f'topic {any_drone(c)} out {qos} "" ""' for c in OUT_CHANNELS]
+    lines += [f'topic {topic(drone_id, c, Direction.IN)} in 0 "" ""' for c in IN_CHANNELS]
+    lines += [
+        f'topic {any_drone(c)} out {qos if c in KEPT_CHANNELS else 0} "" ""' for c in OUT_CHANNELS
+    ]
     return "\n".join(lines) + "\n"

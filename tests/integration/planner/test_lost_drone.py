@@ -81,3 +81,19 @@ async def test_with_replacement_off_a_lost_drones_mission_is_stalled_with_the_re
             await asyncio.sleep(0.05)
     assert record.state is MissionState.STALLED
     assert record.error is not None and "QUAD_A lost" in record.error
+
+
+async def test_a_stalled_mission_runs_again_when_its_drone_is_back_and_completes():
+    """A drone flies on through a lost link; heard again, its reports close the mission."""
+    async with Harness(speedup=10) as h:
+        mission_id, _ = await _fly_and_lose(h, replacement=False)
+        for _ in range(400):
+            if h.planner.missions[mission_id].state is MissionState.STALLED:
+                break
+            await asyncio.sleep(0.05)
+        assert h.planner.missions[mission_id].state is MissionState.STALLED
+        for client in h.fleet.apps["QUAD_A"].clients.values():
+            await client.start(timeout_s=10)  # the link is back
+        record = await h.until_ended(mission_id, timeout_s=240)
+    assert record.state is MissionState.COMPLETED, record.error
+    assert len(record.done) == len(record.work) and not record.handovers

@@ -33,11 +33,19 @@ def test_the_listing_of_the_seed(capsys, tmp_path):
         "username droneUsername",
         "password dronePassword",
         "clientid droneMosquitto-REVOLUTION_94E041",
-        'topic REVOLUTION_94E041/control/in in 1 "" ""',
-        'topic REVOLUTION_94E041/mission/in in 1 "" ""',
-        'topic REVOLUTION_94E041/gear/in in 1 "" ""',
+        # Requests are never queued on the ground for a bridge that is away (issue 13)...
+        'topic REVOLUTION_94E041/control/in in 0 "" ""',
+        'topic REVOLUTION_94E041/mission/in in 0 "" ""',
+        'topic REVOLUTION_94E041/gear/in in 0 "" ""',
+        # ... what the ground must get is kept for it; telemetry and heartbeats are not.
         'topic +/control/out out 1 "" ""',
-        'topic +/telemetry/out out 1 "" ""',
+        'topic +/mission/out out 1 "" ""',
+        'topic +/alarms/out out 1 "" ""',
+        'topic +/telemetry/out out 0 "" ""',
+        'topic +/heartbeats/out out 0 "" ""',
+        "cleansession false",
+        "local_cleansession false",
+        "max_queued_messages 50000",
         "try_private false",  # RabbitMQ's MQTT adapter refuses Mosquitto's private bridge bit
     ]:
         assert expected in lines

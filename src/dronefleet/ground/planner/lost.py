@@ -7,7 +7,9 @@ drone did not report done (ground/planner/replacement.py). The lost drone is sen
 that brings it home (RTL), kept by the broker's persistent session; when it comes back online the
 leg is sent again (a restarted drone forgot it) and its reports are asked for, so late reports are
 reconciled: a step it did after all is recorded, none is flown twice without being recorded.
-With replacement off, or nobody able to take over, the mission is ``stalled`` with the reason.
+With replacement off, or nobody able to take over, the mission is ``stalled`` with the reason
+(the lost drone's leg keeps it open) and runs again when the drone is back: a drone flies on
+through a lost link (drone/outbox.py), and its reports, asked for again, close the mission.
 """
 
 from __future__ import annotations
@@ -84,3 +86,14 @@ async def stall(planner: PlannerOps, record: MissionRecord, why: str) -> None:
         await planner.save(record)
     planner.emit("mission", **record.summary())
     log.warning("mission %s stalled: %s", record.mission_id, why)
+
+
+async def unstall(planner: PlannerOps, record: MissionRecord, why: str) -> None:
+    """A stalled mission runs again (its lost drone is back); ``why`` is logged."""
+    async with planner.lock:
+        if record.state is not MissionState.STALLED:
+            return
+        record.state, record.error = MissionState.RUNNING, None
+        await planner.save(record)
+    planner.emit("mission", **record.summary())
+    log.info("mission %s runs again: %s", record.mission_id, why)

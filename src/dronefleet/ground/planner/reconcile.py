@@ -16,7 +16,7 @@ import secrets
 from typing import TYPE_CHECKING
 
 from dronefleet.ground.planner import lost, replacement
-from dronefleet.ground.planner.models import Leg, LegState, MissionRecord
+from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
 from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.ground_events import FleetChange, FleetEvent
@@ -120,6 +120,10 @@ async def on_fleet_event(planner: MissionPlanner, topic_name: str, payload: byte
         planner.lost.discard(event.drone_id)
         for record in list(planner.missions.values()):
             for leg in record.active_legs():
-                if leg.drone_id == event.drone_id and leg.role.outgoing:
+                if leg.drone_id != event.drone_id:
+                    continue
+                if record.state is MissionState.STALLED and not record.handed_over(leg):
+                    await lost.unstall(planner, record, f"drone {leg.drone_id} is back")
+                if leg.role.outgoing:
                     await planner.send_leg(record, leg)  # again: it may have been restarted
         await ask_reports(planner, event.drone_id)

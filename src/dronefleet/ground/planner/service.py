@@ -326,7 +326,7 @@ class MissionPlanner:
     async def after_progress(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
         """Close the mission when nothing is left to fly, or fail it when a leg failed."""
         async with self._lock:
-            if record.terminal or any(lg.drone_id not in self.lost for lg in record.active_legs()):
+            if record.terminal or any(self._holds_open(record, lg) for lg in record.active_legs()):
                 return
             # Every leg has ended (or its drone is lost, its work taken over): so has the mission;
             # its state follows from its legs'.
@@ -339,6 +339,14 @@ class MissionPlanner:
             else:
                 why = f"every leg ended with {len(left)} steps not flown"
                 await self._finish(record, MissionState.FAILED, record.error or why)
+
+    def _holds_open(self, record: MissionRecord, leg: Leg) -> bool:
+        """Whether active ``leg`` keeps its mission open: its drone is heard, or it is lost with
+        work nobody has taken over (the mission is then stalled until it is back). A lost
+        drone's way out (going home, landing) holds nothing open."""
+        if leg.drone_id not in self.lost:
+            return True
+        return not leg.role.outgoing and not record.handed_over(leg)
 
     async def _finish(
         self, record: MissionRecord, state: MissionState, error: str | None = None
