@@ -13,6 +13,7 @@ from pathlib import Path
 
 from dronefleet.messaging.embedded import free_port
 from dronefleet.messaging.url import BrokerUrl
+from support.processes import stop
 
 MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
 
@@ -76,17 +77,8 @@ class Mosquitto:
 
     def stop(self, *, kill: bool = False) -> None:
         proc, self.proc = self.proc, None
-        if proc is None or proc.poll() is not None:
-            return
-        if kill:
-            proc.kill()
-        else:
-            proc.terminate()
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        if proc is not None:
+            stop(proc, sig_kill=kill)
 
 
 @contextlib.contextmanager
