@@ -89,6 +89,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="fly missions on board the autopilot (MAVLink AUTO) when every step allows it; "
         "a mission's own 'onboard' option wins",
     )
+    p.add_argument(
+        "--link-loss",
+        choices=["continue", "hold", "rtl"],
+        default="continue",
+        help="what a running mission does when the broker link is lost (as ArduPilot's GCS "
+        "failsafe): fly on (default), hold position, or return home",
+    )
+    p.add_argument(
+        "--link-loss-timeout",
+        type=positive_speedup,
+        default=5.0,
+        help="vehicle seconds without the broker before --link-loss acts (FS_GCS_TIMEOUT)",
+    )
     p.add_argument("--log-dir", type=Path, help="rotating JSONL logs go here")
     p.add_argument("--gear-dir", type=Path, help="folder with specs.json and sensors.json")
     p.add_argument("--heartbeat-s", type=float, default=5.0, help="heartbeat interval (vehicle s)")
@@ -116,6 +129,8 @@ def run(args: argparse.Namespace) -> int:
         log_dir=args.log_dir,
         gear_dir=args.gear_dir,
         onboard_missions=args.onboard_missions,
+        link_loss_action=args.link_loss,
+        link_loss_timeout_s=args.link_loss_timeout,
     )
     if args.sensor_bound:
         config.sensor_bounds = dict(args.sensor_bound)

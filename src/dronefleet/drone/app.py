@@ -14,6 +14,7 @@ from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.controller import DroneController
 from dronefleet.drone.failsafe import FailSafe
 from dronefleet.drone.gear import GearManager
+from dronefleet.drone.link_loss import LinkLossAction, LinkWatch
 from dronefleet.drone.logger import DroneLogger
 from dronefleet.drone.mission_worker import MissionWorker
 from dronefleet.messaging.client import BrokerClient
@@ -46,6 +47,11 @@ class DroneApp:
         self.clients = {role: client(role) for role in ("controller", "gear", "failsafe", "logger")}
         self.controller = DroneController(config, self.clients["controller"], fc)
         self.mission_worker = MissionWorker(self.controller)
+        self.link_watch = LinkWatch(
+            self.mission_worker,
+            LinkLossAction(config.link_loss_action),
+            config.link_loss_timeout_s,
+        )
         self.gear = GearManager(
             drone_id,
             self.clients["gear"],
@@ -81,12 +87,14 @@ class DroneApp:
         await self.gear.start()
         await self.failsafe.start()
         await self.mission_worker.start()
+        self.link_watch.start()
         await self.controller.start()
         log.info("drone %s up on %s", self.drone_id, self.clients["controller"].url)
         return self
 
     async def stop(self) -> None:
         await self.controller.stop()
+        await self.link_watch.stop()
         await self.mission_worker.stop()
         await self.failsafe.stop()
         await self.gear.stop()

@@ -23,6 +23,11 @@ class DroneConfig:
     # Fly eligible missions on board (MAVLink AUTO) unless a mission asks otherwise
     # (``MissionRequest.onboard``); ``dronefleet drone --onboard-missions``.
     onboard_missions: bool = False
+    # What a running mission does when the broker link has been down link_loss_timeout_s
+    # vehicle seconds (drone/link_loss.py): "continue" (default), "hold" or "rtl";
+    # ``dronefleet drone --link-loss``.
+    link_loss_action: str = "continue"
+    link_loss_timeout_s: float = 5.0
     sensor_bounds: dict[str, tuple[float | None, float | None]] = field(
         default_factory=lambda: {"co2_ppm": (None, 1000.0)}
     )

@@ -145,6 +145,12 @@ class MissionWorker:
                 name=f"mission:{mission_id}",
             )
 
+    async def abandon(self, reason: str) -> None:
+        """Stop the running mission for ``reason`` (reported ``stopped``), as a stop request
+        would, but leaving what the vehicle does next to the caller (drone/link_loss.py)."""
+        async with self._lock:
+            await self._cancel_current(reason=reason)
+
     async def _cancel_current(self, *, reason: str = "", request_id: str | None = None) -> None:
         task, mission_id = self._task, self.mission_id
         if task is not None and not task.done():
