@@ -9,6 +9,9 @@
 
 ``strategy="seed"`` flies the dissertation's way (stop at every photo; take off, then fly; equal
 waypoint counts; grid rebuild); ``"ours"`` flies through, climbs while flying, balances the split.
+Both end each share as the seed's missions did, hovering where the work ended
+(``end_action="hold"``), so the figures measure the work the seed measured; a mission planned
+from the API or the web app goes home at the end by default (ground/planner/ends.py).
 """
 
 from __future__ import annotations
@@ -23,10 +26,14 @@ from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec
 from dronefleet.ground.planner.coverage.spec import Action, Grid
+from dronefleet.ground.planner.ends import EndAction
 from dronefleet.ground.planner.launch import MissionSpec
 from dronefleet.ground.planner.models import Leg, MissionRecord
 from dronefleet.ground.planner.options import MissionOptions, Strategy
 from dronefleet.ground.planner.units import units
+
+#: How the experiments' shares end: as the seed's did (see the module's docstring).
+SEED_END: EndAction = "hold"
 
 
 def rectangle(
@@ -101,7 +108,7 @@ async def survey(h: Harness, strategy: Strategy) -> Result:
         name="survey",
         drones=["QUAD_S"],
         area=area,
-        options=MissionOptions(strategy=strategy, collaboration=False),
+        options=MissionOptions(strategy=strategy, collaboration=False, end_action=SEED_END),
     )
     record = await launch.create(h.planner, spec, start=True)
     record = await h.until_ended(record.mission_id)
@@ -171,7 +178,10 @@ async def replacement(h: Harness, strategy: Strategy) -> Result:
         drones=["QUAD_A"],
         steps=steps,
         options=MissionOptions(
-            strategy=strategy, collaboration=False, early_replacement=strategy == "ours"
+            strategy=strategy,
+            collaboration=False,
+            early_replacement=strategy == "ours",
+            end_action=SEED_END,
         ),
     )
     record = await launch.create(h.planner, spec, start=True)
@@ -244,7 +254,7 @@ async def collab(h: Harness, strategy: Strategy) -> Result:
         drones=["QUAD_A"],
         steps=steps,
         area=area,
-        options=MissionOptions(strategy=strategy, replacement=False),
+        options=MissionOptions(strategy=strategy, replacement=False, end_action=SEED_END),
     )
     record = await launch.create(h.planner, spec, start=True)
     record = await h.until_ended(record.mission_id)

@@ -13,7 +13,7 @@ import pytest
 
 from dronefleet.drone.config import DroneConfig
 from dronefleet.experiments.scenarios import rectangle
-from dronefleet.geo.ned import ned_to_lla
+from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.manager.auth import Role, TokenBook
 from dronefleet.ground.services import GroundServices
@@ -168,3 +168,33 @@ async def test_stopping_a_mission_and_calling_a_drone(platform):
     assert arrived["state"] == "completed"
     bad = await op.post("/api/v1/call", json={"lat": 95, "lon": 0})
     assert bad.status_code == 422
+
+
+async def test_aborting_a_mission_brings_its_drone_home(platform):
+    """Issue 14: abort stops the mission and sends its drones home (RTL), where they land."""
+    op, view = platform
+    r = await op.post(
+        "/api/v1/missions", params={"start": "true"}, json={"drones": ["FULL"], "area": area()}
+    )
+    mission_id = r.json()["mission_id"]
+    await until_state(op, mission_id, {"running"})
+    for _ in range(100):  # out in the field, away from home
+        drone = (await op.get("/api/v1/drones/FULL")).json()
+        if drone["state"] == "flying":
+            break
+        await asyncio.sleep(0.1)
+    await asyncio.sleep(2.0)
+    assert (await view.post(f"/api/v1/missions/{mission_id}/abort")).status_code == 403
+    aborted = await op.post(f"/api/v1/missions/{mission_id}/abort")
+    assert aborted.status_code == 200, aborted.text
+    assert aborted.json()["state"] == "stopped" and "home" in aborted.json()["error"]
+    for _ in range(300):
+        drone = (await op.get("/api/v1/drones/FULL")).json()
+        if drone["state"] in ("disarmed", "armed"):  # on the ground again
+            break
+        await asyncio.sleep(0.1)
+    here = drone["position"]
+    offset = lla_to_ned(LLA(here["lat"], here["lon"], HOME.alt_m), HOME)
+    assert drone["state"] in ("disarmed", "armed") and abs(offset.n) < 3 and abs(offset.e) < 3, (
+        drone
+    )

@@ -1,6 +1,7 @@
 """The Mission Planner's REST API: ``/api/v1/missions`` and the call-a-drone endpoint.
 
-Create (optionally start), preview (waypoints, time and battery per drone), start, stop, list,
+Create (optionally start), preview (waypoints, time and battery per drone), start, stop, abort
+(every drone home), list,
 get, and the mission log (JSON, downloadable). Refusals are 4xx with the reason; nothing changes.
 """
 
@@ -114,6 +115,18 @@ async def stop(request: Request, mission_id: str, who: Operator) -> MissionSumma
     planner = planner_of(request)
     call = planner.stop_mission(mission_id)
     record = await _guard(request, who, "mission.stop", {"mission_id": mission_id}, call)
+    return MissionSummary.model_validate(record.summary())
+
+
+@router.post(
+    "/missions/{mission_id}/abort",
+    summary="Abort a mission: its drones stop and return home (RTL)",
+    responses=PLANNING,
+)
+async def abort(request: Request, mission_id: str, who: Operator) -> MissionSummary:
+    planner = planner_of(request)
+    call = planner.stop_mission(mission_id, home=True)
+    record = await _guard(request, who, "mission.abort", {"mission_id": mission_id}, call)
     return MissionSummary.model_validate(record.summary())
 
 

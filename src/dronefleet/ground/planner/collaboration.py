@@ -16,6 +16,7 @@ from typing import Any
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner import allocation
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area, rebuild, seed_grid_rebuild
+from dronefleet.ground.planner.ends import end_steps
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import preparation
 from dronefleet.ground.planner.models import Expansion, LatLon, Leg, LegState, MissionRecord
@@ -113,6 +114,9 @@ async def extend(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: Al
                     else LegRole.COLLABORATOR,
                     prefix=prefix,
                     indices=indices,
+                    suffix=end_steps(
+                        record.options.end_action, [*prefix, *(record.work[i] for i in indices)]
+                    ),
                 ),
             )
         await planner.save(record)

@@ -18,6 +18,7 @@ from dronefleet.geo.types import LLA
 from dronefleet.ground.planner import allocation
 from dronefleet.ground.planner.bounds import AreaRequest
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area
+from dronefleet.ground.planner.ends import end_steps
 from dronefleet.ground.planner.estimate import VehicleModel, can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
@@ -113,7 +114,8 @@ class Planned:
 
     work: list[dict[str, Any]]
     coverage: dict[str, Any]
-    shares: list[tuple[str, list[dict[str, Any]], list[int], dict[str, Any]]]
+    # (drone, preparation, work indices, end steps, estimate)
+    shares: list[tuple[str, list[dict[str, Any]], list[int], list[dict[str, Any]], dict[str, Any]]]
 
 
 def plan_mission(
@@ -133,7 +135,9 @@ def plan_mission(
         "angle_deg": getattr(plan, "angle_deg", None),
         "spacing_m": getattr(plan, "spacing_m", None),
     }
-    return Planned(work, coverage, [(d.drone_id, pre, idx, est) for d, pre, idx, est in shares])
+    return Planned(
+        work, coverage, [(d.drone_id, pre, idx, end, est) for d, pre, idx, end, est in shares]
+    )
 
 
 async def planned(planner: MissionPlanner, spec: MissionSpec) -> Planned:
@@ -176,8 +180,9 @@ def assign(
     fleet: dict[str, DroneView],
     busy: set[str],
     reserve_pct: float,
-) -> list[tuple[DroneView, list[dict[str, Any]], list[int], dict[str, Any]]]:
-    """Which drone flies which steps, with its preparation and estimate; refuses with reasons."""
+) -> list[tuple[DroneView, list[dict[str, Any]], list[int], list[dict[str, Any]], dict[str, Any]]]:
+    """Which drone flies which steps, with its preparation, its end (ground/planner/ends.py) and
+    its estimate (the way home included); refuses with reasons."""
     chosen = _chosen(spec, work, fleet, busy)
     altitude = mission_altitude(work, spec.area.altitude_m if spec.area else 10.0)
     strategy = spec.options.strategy
@@ -209,6 +214,8 @@ def assign(
     for drone, indices in shares:
         prefix = [] if self_prepared(work) else preparation(drone, altitude, strategy=prepare)
         steps = prefix + [work[i] for i in indices]
+        end = end_steps(spec.options.end_action, steps)
+        steps += end
         est = estimate(
             steps,
             start=drone.position,
@@ -227,6 +234,7 @@ def assign(
                 drone,
                 prefix,
                 indices,
+                end,
                 {
                     "duration_s": round(est.duration_s, 1),
                     "battery_used_pct": round(est.battery_used_pct, 1),
@@ -254,8 +262,8 @@ async def preview(planner: MissionPlanner, spec: MissionSpec) -> dict[str, Any]:
         "steps": done.work,
         **done.coverage,
         "drones": [
-            {"drone_id": drone_id, "steps": len(prefix) + len(idx), **est}
-            for drone_id, prefix, idx, est in done.shares
+            {"drone_id": drone_id, "steps": len(prefix) + len(idx) + len(end), **est}
+            for drone_id, prefix, idx, end, est in done.shares
         ],
     }
 
@@ -280,12 +288,13 @@ async def create(
 
 async def launch(planner: MissionPlanner, record: MissionRecord, shares: list[Any]) -> None:
     record.state = MissionState.RUNNING
-    for drone_id, prefix, indices, _est in shares:
+    for drone_id, prefix, indices, end, _est in shares:
         leg = Leg(
             leg_id=planner.next_leg_id(record),
             drone_id=drone_id,
             prefix=prefix,
             indices=indices,
+            suffix=end,
         )
         await planner.send_leg(record, leg)
 
@@ -337,6 +346,8 @@ async def call_drone(
             },
             {"command": Command.WAIT_FOR_FLIGHT.value},
         ],
-        options=MissionOptions(strategy=strategy, collaboration=False),
+        # It comes to stay: a call ends hovering above the caller until an operator sends the
+        # drone home (abort) or on.
+        options=MissionOptions(strategy=strategy, collaboration=False, end_action="hold"),
     )
     return await create(planner, spec, start=True)

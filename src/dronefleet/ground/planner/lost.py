@@ -18,16 +18,14 @@ import logging
 from typing import Any
 
 from dronefleet.ground.planner import replacement
+from dronefleet.ground.planner.ends import GO_HOME  # what a lost drone does when heard again
 from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
 from dronefleet.ground.planner.ops import PlannerOps
-from dronefleet.messaging.commands import AlarmLevel, Command
+from dronefleet.messaging.commands import AlarmLevel
 from dronefleet.messaging.common import Position
 from dronefleet.messaging.status import Alarm
 
 log = logging.getLogger(__name__)
-
-#: What a lost drone does when it hears from the ground again: it goes home and lands.
-GO_HOME = ({"command": Command.RTL.value}, {"command": Command.WAIT_FOR_FLIGHT.value})
 
 
 def last_known(

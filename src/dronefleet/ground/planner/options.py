@@ -11,6 +11,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from dronefleet.ground.planner.ends import EndAction
+
 #: How a drone gets to its work: climbing while flying (ours) or the dissertation's way (seed).
 Strategy = Literal["ours", "seed"]
 
@@ -27,6 +29,9 @@ class MissionOptions(BaseModel):
     # Fly each leg on board its autopilot (MAVLink AUTO) when its steps allow it (true), from
     # the companion computer (false), or as each drone is configured (null).
     onboard: bool | None = None
+    # How each drone's share ends (ground/planner/ends.py): home and land (default), land where
+    # the work ended, or hold there.
+    end_action: EndAction = "rtl"
 
 
 class RecordOptions(MissionOptions):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+from dronefleet.ground.planner.ends import end_steps
 from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
@@ -152,6 +153,7 @@ async def _hand_over(
     except Exception as exc:
         fleet, why = [], f"the Drone Identifier did not answer: {exc}"
     work = [record.work[i] for i in left]
+    end = end_steps(record.options.end_action, work)  # its battery check counts the way home
     trigger = camera_state(record, leg)  # restored on arrival, for fly-through surveys
     altitude = mission_altitude(record.work)
     chosen, prefix_or_reason = (
@@ -162,7 +164,7 @@ async def _hand_over(
             planner.reserve_pct,
             fleet,
             near,
-            work,
+            work + end,
             altitude,
             planner.busy_drones() | {leg.drone_id},
             record.options.strategy,
@@ -186,6 +188,7 @@ async def _hand_over(
         role=LegRole.REPLACEMENT,
         prefix=prefix,
         indices=left,
+        suffix=end,
     )
     handover.to_drone, handover.to_leg = chosen.drone_id, new_leg.leg_id
     record.state = MissionState.HANDED_OVER

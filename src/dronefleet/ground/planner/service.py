@@ -18,6 +18,7 @@ from typing import Any
 from dronefleet.clock import timestamp_s
 from dronefleet.errors import Conflict, InvalidInput, NotFound
 from dronefleet.ground.planner import reconcile
+from dronefleet.ground.planner.ends import GO_HOME
 from dronefleet.ground.planner.fleet_view import FleetView
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
@@ -27,6 +28,7 @@ from dronefleet.ground.planner.models import (
     MissionState,
     StepReport,
 )
+from dronefleet.ground.planner.options import LegRole
 from dronefleet.ground.planner.store import MissionStore
 from dronefleet.ground.planner.units import remaining
 from dronefleet.ground.planner.worker import PlanningWorker
@@ -237,14 +239,28 @@ class MissionPlanner:
             qos=QOS_COMMAND,
         )
 
-    async def stop_mission(self, mission_id: str) -> MissionRecord:
+    async def stop_mission(self, mission_id: str, *, home: bool = False) -> MissionRecord:
+        """Stop a mission: its drones hold where they are, or (``home``: an abort) each is sent
+        a leg that replaces what it flies with a return home (RTL)."""
         async with self._lock:
             record = self.get(mission_id)
             if record.terminal:
                 return record
             for leg in record.active_legs():
-                await self.stop_leg(leg)
-            await self._finish(record, MissionState.STOPPED, "stopped on request")
+                if not home:
+                    await self.stop_leg(leg)
+                    continue
+                leg.state = LegState.STOPPED
+                going = Leg(
+                    leg_id=self.next_leg_id(record),
+                    drone_id=leg.drone_id,
+                    role=LegRole.RECOVERY,
+                    prefix=list(GO_HOME),
+                    state=LegState.STOPPED,  # the mission is over: nothing waits for it
+                )
+                await self.send_leg(record, going)
+            why = "aborted on request: its drones were sent home" if home else "stopped on request"
+            await self._finish(record, MissionState.STOPPED, why)
             return record
 
     # -- progress ----------------------------------------------------------------------------

@@ -24,6 +24,11 @@ export async function mount(root, ctx) {
     flyThrough: el("input", { type: "checkbox", id: "plan-fly-through" }),
     polygon: el("textarea", { id: "plan-polygon", rows: 4, placeholder: "lat, lon per line" }),
   };
+  // Every mission ends with a safe action (ground/planner/ends.py): home by default.
+  const endAction = el("select", { id: "plan-end" },
+    el("option", { value: "rtl" }, "Return home and land"),
+    el("option", { value: "land" }, "Land where the work ends"),
+    el("option", { value: "hold" }, "Hold there (an operator takes over)"));
   const drones = el("fieldset", { class: "drones", id: "plan-drones" }, el("legend", {}, "Drones"));
   const status = el("div", { id: "mission-status", class: "status", role: "status", "aria-live": "polite" }, "No mission sent yet.");
   const watch = el("select", { id: "plan-watch" }, el("option", { value: "" }, "— the one sent from here —"));
@@ -53,11 +58,12 @@ export async function mount(root, ctx) {
   kind.addEventListener("change", () => { areaTab.hidden = kind.value !== "area"; stepsTab.hidden = kind.value !== "steps"; });
 
   root.append(el("h1", {}, "Planner"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
-    field("Mission", kind), areaTab, stepsTab, drones,
+    field("Mission", kind), areaTab, stepsTab, drones, field("When done", endAction),
     el("div", { class: "buttons" },
       btn("plan-preview", "Preview", preview, { disabled: !can }),
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
-    estimate, field("Watch a mission", watch), status)));
+    estimate, field("Watch a mission", watch), status,
+    el("div", { class: "buttons" }, btn("plan-abort", "Abort: all home", abort, { class: "danger", disabled: !can })))));
 
   // Read when opened; on an error the list stays as it was and the stream keeps the status.
   const fillWatch = () => addMissionOptions(watch).catch(() => {});
@@ -133,7 +139,7 @@ export async function mount(root, ctx) {
 
   function spec() {
     const chosen = [...drones.querySelectorAll("input:checked")].map((i) => i.value);
-    const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen };
+    const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen, options: { end_action: endAction.value } };
     if (kind.value === "steps") {
       body.steps = editor.steps();
       return body;
@@ -182,6 +188,17 @@ export async function mount(root, ctx) {
     } catch (err) {
       status.textContent = `Send failed: ${err.message}`;
       toast(`send failed: ${err.message}`, "error");
+    }
+  }
+
+  /** Stop the watched mission and send its drones home (RTL); never waits for a confirmation. */
+  async function abort() {
+    if (!s.missionId) { toast("no mission is watched", "error"); return; }
+    try {
+      showMission(await api(`/missions/${s.missionId}/abort`, { method: "POST" }));
+      toast(`mission ${s.missionId} aborted: its drones are going home`);
+    } catch (err) {
+      toast(`abort failed: ${err.message}`, "error");
     }
   }
 

@@ -1,0 +1,56 @@
+"""Every mission ends with a safe action (issue 14): a drone done with its share goes home.
+
+Before, a drone that had flown its share hovered where its last waypoint was until its battery
+gave out. Now each share ends with the mission's end action: home and land by default, land
+where the work ended, or hold there.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from dronefleet.experiments.harness import Harness
+from dronefleet.geo.ned import lla_to_ned
+from dronefleet.geo.types import NED
+from dronefleet.ground.planner import launch
+from dronefleet.ground.planner.models import MissionState
+from dronefleet.ground.planner.options import MissionOptions
+from support.missions import small_field_steps
+
+pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
+
+
+@pytest.mark.parametrize("end_action", ["rtl", "land", "hold"])
+async def test_a_drone_done_with_its_share_does_the_missions_end_action(end_action):
+    options = MissionOptions(
+        collaboration=False, early_replacement=False, replacement=False, end_action=end_action
+    )
+    async with Harness(speedup=20) as h:
+        await h.add_drone("QUAD_A", NED(0, 0))
+        await h.wait_identified(["QUAD_A"])
+        await h.settle()
+        spec = launch.MissionSpec(name="ends", drones=["QUAD_A"], steps=small_field_steps(),
+                                  options=options)  # fmt: skip
+        record = await launch.create(h.planner, spec, start=True)
+        record = await h.until_ended(record.mission_id, timeout_s=240)
+        await h.settle(15.0)  # after the last report: the vehicle settles (and disarms)
+        fc = h.fleet.apps["QUAD_A"].fc
+        state, home = fc.state(), fc.home()
+        offset = lla_to_ned(fc.position(), home)
+
+    assert record.state is MissionState.COMPLETED, record.error
+    leg = record.legs[0]
+    assert [s["command"] for s in leg.suffix] == {
+        "rtl": ["rtl", "wait_for_flight"],
+        "land": ["land", "wait_for_flight"],
+        "hold": [],
+    }[end_action]
+    from_home = math.hypot(offset.n, offset.e)
+    if end_action == "rtl":
+        assert not state.in_air and not state.armed and from_home < 3.0, (state, offset)
+    elif end_action == "land":
+        assert not state.in_air and not state.armed and from_home > 10.0, (state, offset)
+    else:
+        assert state.in_air and -offset.d > 5.0, (state, offset)
