@@ -12,10 +12,11 @@ as a stop request would. Time is the vehicle's, as the autopilot's failsafe time
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from enum import StrEnum
 from typing import TYPE_CHECKING
+
+from dronefleet.tasks import cancel_and_wait
 
 if TYPE_CHECKING:
     from dronefleet.drone.mission_worker import MissionWorker
@@ -56,10 +57,7 @@ class LinkWatch:
 
     async def stop(self) -> None:
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(task)
 
     async def _watch(self) -> None:
         clock, client = self.worker.clock, self.worker.client

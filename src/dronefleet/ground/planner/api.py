@@ -112,10 +112,7 @@ async def start(request: Request, mission_id: str, who: Operator) -> MissionSumm
     "/missions/{mission_id}/stop", summary="Stop a mission; its drones hold", responses=PLANNING
 )
 async def stop(request: Request, mission_id: str, who: Operator) -> MissionSummary:
-    planner = planner_of(request)
-    call = planner.stop_mission(mission_id)
-    record = await _guard(request, who, "mission.stop", {"mission_id": mission_id}, call)
-    return MissionSummary.model_validate(record.summary())
+    return await _stop(request, who, mission_id, home=False)
 
 
 @router.post(
@@ -124,9 +121,13 @@ async def stop(request: Request, mission_id: str, who: Operator) -> MissionSumma
     responses=PLANNING,
 )
 async def abort(request: Request, mission_id: str, who: Operator) -> MissionSummary:
-    planner = planner_of(request)
-    call = planner.stop_mission(mission_id, home=True)
-    record = await _guard(request, who, "mission.abort", {"mission_id": mission_id}, call)
+    return await _stop(request, who, mission_id, home=True)
+
+
+async def _stop(request: Request, who: Any, mission_id: str, *, home: bool) -> MissionSummary:
+    call = planner_of(request).stop_mission(mission_id, home=home)
+    command = "mission.abort" if home else "mission.stop"
+    record = await _guard(request, who, command, {"mission_id": mission_id}, call)
     return MissionSummary.model_validate(record.summary())
 
 

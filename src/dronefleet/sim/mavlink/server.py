@@ -8,7 +8,6 @@ One task on the sim clock updates every vehicle's mode logic and telemetry each 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from dronefleet.sim.mavlink.copter import SimCopter
 from dronefleet.sim.mavlink.endpoint import VehicleEndpoint
 from dronefleet.sim.mavlink.params import ParamTable
 from dronefleet.sim.world import SimWorld
+from dronefleet.tasks import cancel_and_wait
 
 log = logging.getLogger(__name__)
 
@@ -73,10 +73,7 @@ class MavlinkSimServer:
 
     async def stop(self) -> None:
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(task)
         for endpoint in self.endpoints:
             endpoint.close()
         await self.world.stop()
