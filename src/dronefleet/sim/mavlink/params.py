@@ -34,6 +34,13 @@ DEFAULTS: dict[str, tuple[float, int]] = {
     "BATT_LOW_MAH": (275, _INT32),
     "FS_BATT_ENABLE": (1, _INT32),  # land
     "FS_GCS_ENABLE": (0, _INT32),  # keep flying a mission when the ground goes quiet
+    # Geofence (AC_Fence; Copter's defaults): off until enabled; max altitude, circle, polygon.
+    "FENCE_ENABLE": (0, _INT32),
+    "FENCE_TYPE": (7, _INT32),
+    "FENCE_ACTION": (1, _INT32),  # RTL, else land
+    "FENCE_ALT_MAX": (100, _REAL32),  # m
+    "FENCE_RADIUS": (300, _REAL32),  # m
+    "FENCE_MARGIN": (2, _REAL32),  # m
     "SR0_POSITION": (5, _INT32),
     "SR0_EXTRA1": (5, _INT32),
 }

@@ -51,9 +51,23 @@ def heartbeat(c: SimCopter, _: GasSensor | None) -> Message:
 
 
 def sys_status(c: SimCopter, _: GasSensor | None) -> Message:
-    bat = c.vehicle.battery_state
+    """Sensors present, enabled and healthy as ArduPilot Copter reports them (issue 10, item 2):
+    besides the flight sensors, the battery monitor, the geofence (present always, enabled with
+    FENCE_ENABLE, healthy unless breached: the sim never breaches) and the pre-arm checks
+    (healthy when they pass: MAVSDK's ``health.is_armable``). Without the geofence bits MAVProxy
+    announced a "fence breach" at every connect."""
+    v = c.vehicle
+    bat = v.battery_state
+    extra = mav.MAV_SYS_STATUS_SENSOR_BATTERY | mav.MAV_SYS_STATUS_PREARM_CHECK
+    present = _SENSORS | extra | mav.MAV_SYS_STATUS_GEOFENCE
+    enabled = _SENSORS | extra
+    if c.params.get("FENCE_ENABLE"):
+        enabled |= mav.MAV_SYS_STATUS_GEOFENCE
+    health = _SENSORS | mav.MAV_SYS_STATUS_GEOFENCE
+    if bat.remaining_pct > v.failsafe_pct:  # the one pre-arm check the sim can fail
+        health |= mav.MAV_SYS_STATUS_SENSOR_BATTERY | mav.MAV_SYS_STATUS_PREARM_CHECK
     return mav.MAVLink_sys_status_message(
-        _SENSORS, _SENSORS, _SENSORS, 200,
+        present, enabled, health, 200,
         round(bat.voltage_v * 1000), round(bat.current_a * 100), round(bat.remaining_pct),
         0, 0, 0, 0, 0, 0,
     )  # fmt: skip
