@@ -21,6 +21,7 @@ from dronefleet.clock import monotonic
 from dronefleet.protocols.mavlink.codec import Encoder, FrameDecoder, Message, text_field
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.sim.gasfield import GasSensor
+from dronefleet.sim.mavlink import ftp
 from dronefleet.sim.mavlink.copter import CopterEvents, SimCopter
 from dronefleet.sim.mavlink.handlers import CommandHandler
 from dronefleet.sim.mavlink.streams import BUILDERS, StreamScheduler
@@ -122,6 +123,8 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
             )
         elif kind.startswith("PARAM_"):
             self._param(msg)
+        elif kind == "FILE_TRANSFER_PROTOCOL":
+            self.send(ftp.answer(msg))
         else:
             self.transfer.handle(msg)
 
