@@ -66,7 +66,10 @@ class DroneApp:
             fc.clock,
             battery_critical_pct=config.battery_critical_pct,
             sensor_bounds=config.sensor_bounds,
+            listen_to_broker=False,  # fed below from the autopilot and the sensors (issue 12)
         )
+        self.controller.add_sample_listener(self.failsafe.feed)
+        self.gear.sample_listeners.append(self.failsafe.feed)
         self.logger = (
             DroneLogger(drone_id, self.clients["logger"], config.log_dir)
             if config.log_dir is not None

@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 from pydantic import ValidationError
@@ -35,6 +36,9 @@ from dronefleet.messaging.topics import Channel, Direction
 from dronefleet.vehicle.base import FcError, FlightController
 
 log = logging.getLogger(__name__)
+
+#: Called with each flight sample (fields, vehicle seconds).
+SampleListener = Callable[[dict[str, float], float], Awaitable[None]]
 _throttle = LogThrottle(
     log
 )  # one line per kind per 10 s: junk on the broker must not flood the log
@@ -66,6 +70,7 @@ class DroneController:
         self.step_index: int | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._telemetry_task: asyncio.Task[None] | None = None
+        self._sample_listeners: list[SampleListener] = []
         self.draw = FlightDraw()  # measured in flight, sampled with every heartbeat
         self._events: list[Any] = []  # listeners of local events (the Logger)
 
@@ -91,6 +96,18 @@ class DroneController:
 
     def add_event_listener(self, listener: Any) -> None:
         self._events.append(listener)
+
+    def add_sample_listener(self, listener: SampleListener) -> None:
+        """Give ``listener`` every flight sample as the autopilot reports it (before the
+        broker's rate limit): the fail-safe trusts the autopilot, not the broker (issue 12)."""
+        self._sample_listeners.append(listener)
+
+    async def _tell_listeners(self, sample: dict[str, float]) -> None:
+        for listener in self._sample_listeners:
+            try:
+                await listener(sample, self.clock.now())
+            except Exception:
+                log.exception("%s: a flight-sample listener failed", self.drone_id)
 
     def _event(self, kind: str, **data: Any) -> None:
         for listener in self._events:
@@ -243,6 +260,7 @@ class DroneController:
         min_gap_s = 1.0 / self.config.telemetry_max_wall_hz
         last = 0.0
         async for sample in self.fc.telemetry():
+            await self._tell_listeners(sample)
             now = monotonic()
             if now - last < min_gap_s:
                 continue

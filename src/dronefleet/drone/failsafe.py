@@ -1,8 +1,12 @@
 """The Fail-safe System (seed 3.3.2.4): watches the drone's own telemetry and raises alarms.
 
-It listens on the internal broker to ``<id>/telemetry/out`` (flight data from the Drone Controller:
-``battery_pct``, ``lat``, ``lon``, ``alt_m``, ``relative_alt_m``; sensor fields from the Gear
-Manager, e.g. ``co2_ppm``) and ``<id>/mission/out`` (to name the mission and step in its alarms).
+It is given the flight samples the Drone Controller reads from the autopilot (``battery_pct``,
+``lat``, ``lon``, ``alt_m``, ``relative_alt_m``) and the Gear Manager's sensor samples (e.g.
+``co2_ppm``) in process, through :meth:`FailSafe.feed`: it trusts the autopilot and the sensors,
+never its own telemetry echoed back by a broker, where five forged messages once made a drone
+raise three genuine CRITICAL alarms about itself (issue 12). The seed's way, listening on
+``<id>/telemetry/out``, remains for a fail-safe run apart (``listen_to_broker``). It listens to
+``<id>/mission/out`` to name the mission and step in its alarms.
 
 * A battery below the critical threshold raises exactly one ``CRITICAL`` alarm: the ground replaces
   the drone. It re-arms only when the battery is back ``battery_rearm_pct`` points above the
@@ -116,6 +120,7 @@ class FailSafe:
         battery_critical_pct: float = 20.0,
         sensor_bounds: dict[str, tuple[float | None, float | None]] | None = None,
         battery_rearm_pct: float = 5.0,
+        listen_to_broker: bool = True,
     ) -> None:
         self.drone_id = topics.check_drone_id(drone_id)
         self.client = client
@@ -132,6 +137,7 @@ class FailSafe:
         self._pending: list[_Pending] = []
         self._running = False
         self._subscribed = False
+        self.listen_to_broker = listen_to_broker
         self._telemetry_topic = topics.topic(drone_id, Channel.TELEMETRY, Direction.OUT)
         self._mission_topic = topics.topic(drone_id, Channel.MISSION, Direction.OUT)
         self._alarm_topic = topics.topic(drone_id, Channel.ALARMS, Direction.OUT)
@@ -139,7 +145,10 @@ class FailSafe:
     async def start(self) -> None:
         self._running = True
         if not self._subscribed:
-            await self.client.subscribe(self._telemetry_topic, self._on_telemetry, qos=QOS_STREAM)
+            if self.listen_to_broker:
+                await self.client.subscribe(
+                    self._telemetry_topic, self._on_telemetry, qos=QOS_STREAM
+                )
             await self.client.subscribe(self._mission_topic, self._on_mission, qos=QOS_COMMAND)
             self._subscribed = True
 
@@ -170,6 +179,13 @@ class FailSafe:
             log.debug("fail-safe: dropping telemetry: %s", exc)
             return
         self.observe(telemetry.fields, telemetry.vehicle_time_s)
+        await self._flush()
+
+    async def feed(self, fields: dict[str, Any], vehicle_time_s: float) -> None:
+        """A sample read on board (flight or sensors); raise what it calls for."""
+        if not self._running:
+            return
+        self.observe(fields, vehicle_time_s)
         await self._flush()
 
     def observe(self, fields: dict[str, Any], vehicle_time_s: float) -> None:

@@ -17,7 +17,7 @@ import inspect
 import logging
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import asdict
 from importlib import resources
 from pathlib import Path
@@ -158,6 +158,8 @@ class GearManager:
         self._in_topic = topics.topic(drone_id, Channel.GEAR, Direction.IN)
         self._out_topic = topics.topic(drone_id, Channel.GEAR, Direction.OUT)
         self._telemetry_topic = topics.topic(drone_id, Channel.TELEMETRY, Direction.OUT)
+        # Given every sensor sample as read (fields, vehicle seconds), before the broker.
+        self.sample_listeners: list[Callable[[dict[str, float], float], Awaitable[None]]] = []
         self._tasks: list[asyncio.Task[None]] = []
         self._failing: set[str] = set()
         self._running = False
@@ -284,6 +286,11 @@ class GearManager:
             if next_s < self.clock.now():  # fell behind (slow sensor): don't burst to catch up
                 next_s = self.clock.now() + period_s
             fields = self.sample()
+            for listener in self.sample_listeners:  # the fail-safe, in process (issue 12)
+                try:
+                    await listener(fields, self.clock.now())
+                except Exception:
+                    log.exception("%s: a sensor-sample listener failed", self.drone_id)
             if fields:
                 message = Telemetry(
                     drone_id=self.drone_id, vehicle_time_s=self.clock.now(), fields=fields

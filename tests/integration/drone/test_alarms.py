@@ -78,3 +78,19 @@ async def test_gas_plume_on_the_path_raises_exactly_one_out_measure_alarm(embedd
             north = (alarm["position"]["lat"] - HOME.lat) * 111_000
             assert 40 < north < 80  # raised near the plume, not elsewhere
             assert not op.alarms("CRITICAL")
+
+
+async def test_forged_telemetry_on_the_drones_topic_raises_no_alarm(embedded_broker):
+    """Issue 12: the fail-safe reads the autopilot, not its own telemetry echoed by the broker
+    (5 forged messages with battery 3 % made a drone raise 3 genuine CRITICAL alarms)."""
+    async with SimFleet(speedup=20) as fleet, Operator(embedded_broker) as op:
+        app = await fleet.add_drone(DroneConfig(drone_id="QUAD_SAFE"), embedded_broker, home=HOME)
+        await op.heartbeat("QUAD_SAFE")
+        forged = {"drone_id": "QUAD_SAFE", "vehicle_time_s": 1.0,
+                  "fields": {"battery_pct": 3.0, "lat": HOME.lat, "lon": HOME.lon, "alt_m": 10.0,
+                             "co2_ppm": 5000.0}}  # fmt: skip
+        for _ in range(5):
+            await op.client.publish("QUAD_SAFE/telemetry/out", forged, qos=1)
+        await fleet.clock.sleep(5.0)
+        assert op.alarms("CRITICAL") == [] and op.alarms("OUT_MEASURE") == []
+        assert app.failsafe.alarms_raised == 0
