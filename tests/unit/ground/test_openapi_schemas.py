@@ -40,3 +40,23 @@ def test_every_2xx_response_names_a_schema():
         if not _named(next(iter(response.get("content", {}).values()), {}).get("schema"))
     ]
     assert unnamed == []
+
+
+def test_every_operation_but_the_public_ones_declares_the_bearer_scheme():
+    """Issue 12: clients and fuzzers see how the API authenticates. Public: the health check,
+    the web app's start-up settings (map tiles) and the seed's /control page, which asks for
+    its token itself."""
+    spec = create_app(None).openapi()
+    schemes = spec["components"]["securitySchemes"]
+    assert schemes["HTTPBearer"] == {
+        "type": "http",
+        "scheme": "bearer",
+        "description": "an API token: `Authorization: Bearer <token>`",
+    }
+    open_ = {
+        path
+        for path, operations in spec["paths"].items()
+        for operation in operations.values()
+        if {"HTTPBearer": []} not in operation.get("security", [])
+    }
+    assert open_ == {"/api/v1/health", "/api/v1/web/config", "/control"}, open_

@@ -5,6 +5,7 @@ from dataclasses import dataclass
 from typing import Annotated, Any
 
 from fastapi import Depends, Request
+from fastapi.security import HTTPBearer
 from starlette.requests import HTTPConnection
 
 from dronefleet.errors import DronefleetError, NoAnswer
@@ -29,8 +30,16 @@ def ctx_of(conn: HTTPConnection) -> ManagerContext:
     return conn.app.state.ctx
 
 
-def _needs(role: Role) -> Callable[[Request], Awaitable[Principal]]:
-    async def dependency(request: Request) -> Principal:
+#: The API's security scheme as OpenAPI shows it (issue 12: clients and fuzzers see it): a bearer
+#: token in ``Authorization``. FastAPI's HTTPBearer only declares it here (``auto_error=False``);
+#: the token is checked by the TokenBook, which answers 401/403/429 with the reason.
+BEARER = HTTPBearer(auto_error=False, description="an API token: `Authorization: Bearer <token>`")
+
+
+def _needs(role: Role) -> Callable[..., Awaitable[Principal]]:
+    async def dependency(
+        request: Request, _declared: Annotated[object, Depends(BEARER)] = None
+    ) -> Principal:
         return await ctx_of(request).tokens.principal(request, role)
 
     return dependency
