@@ -11,12 +11,14 @@ import math
 
 import pytest
 
-from dronefleet.experiments.harness import Harness
+from dronefleet.experiments.harness import ORIGIN, Harness
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
+from dronefleet.ground.planner.estimate import estimate
 from dronefleet.ground.planner.models import MissionState
 from dronefleet.ground.planner.options import MissionOptions
+from dronefleet.ground.planner.units import units
 from support.missions import small_field_steps
 
 pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
@@ -54,3 +56,37 @@ async def test_a_drone_done_with_its_share_does_the_missions_end_action(end_acti
         assert not state.in_air and not state.armed and from_home > 10.0, (state, offset)
     else:
         assert state.in_air and -offset.d > 5.0, (state, offset)
+
+
+async def test_a_drone_handed_over_early_goes_home_and_so_does_its_replacement():
+    """Issue 14: the departing drone of a replacement landed in the field (~140 m from home)."""
+    steps = small_field_steps()
+    first13 = [steps[i] for g in units(steps)[:13] for i in g]
+    async with Harness(speedup=20) as h:
+        used = estimate(first13, start=ORIGIN, home=ORIGIN, airborne=True).battery_used_pct
+        battery = h.planner.reserve_pct + used + 3.0  # 13 units and the way home, about
+        await h.add_drone("QUAD_A", NED(0, 0), hovering_m=10, battery_pct=battery)
+        await h.add_drone("QUAD_B", NED(77, 70))
+        await h.wait_identified(["QUAD_A", "QUAD_B"])
+        await h.settle()
+        options = MissionOptions(collaboration=False)  # early replacement on, home at the end
+        spec = launch.MissionSpec(name="early", drones=["QUAD_A"], steps=steps, options=options)
+        record = await launch.create(h.planner, spec, start=True)
+        record = await h.until_ended(record.mission_id, timeout_s=300)
+        await h.settle(30.0)
+        landed = {}
+        for drone_id in ("QUAD_A", "QUAD_B"):
+            fc = h.fleet.apps[drone_id].fc
+            offset = lla_to_ned(fc.position(), fc.home())
+            landed[drone_id] = (fc.state().in_air, math.hypot(offset.n, offset.e))
+
+    assert record.state is MissionState.COMPLETED, record.error
+    handover = record.handovers[0]
+    assert handover.kind == "early"
+    leaving = record.leg(handover.leaving_leg)
+    taking = record.leg(handover.to_leg)
+    assert leaving is not None and taking is not None
+    assert [s["command"] for s in leaving.suffix] == ["rtl", "wait_for_flight"]
+    assert [s["command"] for s in taking.suffix] == ["rtl", "wait_for_flight"]
+    for drone_id, (in_air, from_home) in landed.items():
+        assert not in_air and from_home < 3.0, (drone_id, in_air, from_home)

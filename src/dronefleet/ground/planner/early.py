@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dronefleet.geo.types import LLA
+from dronefleet.ground.planner.ends import GO_HOME, EndAction, end_steps
 from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.legs import mission_altitude, preparation
@@ -92,6 +93,9 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         fleet,
         planner.busy_drones() | {leg.drone_id},
         record.options.strategy,
+        # The way home counts against the battery it keeps; landing where it is, as the seed's
+        # did, is left to the reserve (the experiments' figures stay the seed's).
+        leaving_steps(record.options.end_action) if record.options.end_action == "rtl" else [],
     )
     if decision is None:
         return
@@ -112,7 +116,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
             drone_id=leg.drone_id,
             role=LegRole.LEAVING,
             indices=kept,
-            suffix=[{"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value}],
+            suffix=leaving_steps(record.options.end_action),
         )
         record.legs.append(leaving)  # sent below, once the whole decision is written
         trigger = camera_state(record, leg)
@@ -124,6 +128,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
             role=LegRole.REPLACEMENT,
             prefix=prefix,
             indices=rest,
+            suffix=end_steps(record.options.end_action, [record.work[i] for i in rest]),
         )
         handover = Handover(
             kind=HandoverKind.EARLY,
@@ -172,6 +177,14 @@ class Decision:
     leave_at: tuple[float, float]
 
 
+def leaving_steps(end_action: EndAction) -> list[dict[str, Any]]:
+    """How a drone handed over early leaves: home (RTL) when the mission's shares end at home,
+    else it lands where it stops, as the seed's did (the experiments keep the seed's end)."""
+    if end_action == "rtl":
+        return [dict(s) for s in GO_HOME]
+    return [{"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value}]
+
+
 def decide(
     work: list[dict[str, Any]],
     left: list[int],
@@ -182,12 +195,13 @@ def decide(
     fleet: list[DroneView],
     busy: set[str],
     strategy: str,
+    way_out: list[dict[str, Any]],
 ) -> Decision | str | None:
     """Whether to hand the rest of ``left`` over now: None (not yet, or no need), a reason why
     nobody can, or the handover. Runs in the planning worker (ground/planner/worker.py)."""
 
-    def cost(indices: list[int]) -> Any:
-        steps = [work[i] for i in indices]
+    def cost(indices: list[int]) -> Any:  # what it keeps, then its ``way_out``
+        steps = [*(work[i] for i in indices), *way_out]
         return estimate(steps, start=here, home=home, airborne=True, battery_pct=battery)
 
     if can_finish(cost(left), reserve_pct=reserve_pct)[0]:
