@@ -4,7 +4,10 @@ Upload: MISSION_COUNT starts a transfer; the vehicle asks for each item in turn
 (MISSION_REQUEST_INT), re-asks when an item does not come within a second, and answers the last
 one with MISSION_ACK — only then does the new mission replace the old one, so a broken upload
 never leaves half a mission on board. Download: MISSION_REQUEST_LIST → MISSION_COUNT, then one
-MISSION_ITEM_INT per request. Also MISSION_CLEAR_ALL and MISSION_SET_CURRENT.
+MISSION_ITEM_INT per request; item 0 reads back as the home position, as ArduPilot keeps it
+(issue 10, item 6). MISSION_WRITE_PARTIAL_LIST replaces items ``start_index..end_index`` of the
+mission on board the same way (asked for in turn, in force at the last). Also MISSION_CLEAR_ALL
+and MISSION_SET_CURRENT.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ class MissionTransfer:
         self._peer: tuple[int, int] = (0, 0)
         self._asked_at = 0.0
         self._retries = 0
+        self._first = 0  # the first item an upload replaces (> 0 for a partial write)
 
     def handle(self, msg: Message) -> bool:
         """Serve ``msg`` if it belongs to the mission protocol; True when it did."""
@@ -47,6 +51,7 @@ class MissionTransfer:
             return True
         handler = {
             "MISSION_COUNT": self._on_count,
+            "MISSION_WRITE_PARTIAL_LIST": self._on_partial,
             "MISSION_ITEM_INT": self._on_item,
             "MISSION_ITEM": self._on_item,
             "MISSION_REQUEST_LIST": self._on_request_list,
@@ -71,9 +76,22 @@ class MissionTransfer:
             self.copter.on_mission_replaced([])
             self._ack(msg, mav.MAV_MISSION_ACCEPTED)
             return
-        self._incoming, self._expected, self._retries = [], 0, 0
+        self._incoming, self._expected, self._retries, self._first = [], 0, 0, 0
         self._count = msg.count
         self._ask(0)
+
+    def _on_partial(self, msg: Message) -> None:
+        mission = self.copter.mission
+        start, end = msg.start_index, msg.end_index
+        if end == -1:
+            end = start  # one item, as the protocol allows
+        if not 0 <= start <= end < len(mission):
+            self._ack(msg, mav.MAV_MISSION_INVALID_SEQUENCE)
+            return
+        self._peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        self._incoming, self._expected, self._retries = [], start, 0
+        self._first, self._count = start, end + 1
+        self._ask(start)
 
     def _on_item(self, msg: Message) -> None:
         if self._incoming is None:
@@ -90,6 +108,9 @@ class MissionTransfer:
             self._ask(self._expected)
             return
         items, self._incoming = self._incoming, None
+        if self._first:  # a partial write: the rest of the mission stays as it was
+            mission = list(self.copter.mission)
+            items = [*mission[: self._first], *items, *mission[self._count :]]
         self.copter.on_mission_replaced(items)
         self._ack(msg, mav.MAV_MISSION_ACCEPTED)
 
@@ -127,7 +148,19 @@ class MissionTransfer:
         if not 0 <= msg.seq < len(mission):
             self._ack(msg, mav.MAV_MISSION_INVALID_SEQUENCE)
             return
-        self.send(mission[msg.seq].to_message(msg.get_srcSystem(), msg.get_srcComponent(), msg.seq))
+        item = mission[msg.seq] if msg.seq else self._home()
+        self.send(item.to_message(msg.get_srcSystem(), msg.get_srcComponent(), msg.seq))
+
+    def _home(self) -> MissionItem:
+        """Item 0 as ArduPilot reads it back: the home position (absolute altitude)."""
+        home = self.copter.vehicle.home
+        return MissionItem(
+            mav.MAV_CMD_NAV_WAYPOINT,
+            x=round(home.lat * 1e7),
+            y=round(home.lon * 1e7),
+            z=home.alt_m,
+            frame=mav.MAV_FRAME_GLOBAL,
+        )
 
     def _on_clear(self, msg: Message) -> None:
         c = self.copter
