@@ -53,7 +53,7 @@ class LocalProjection:
             return []
         x, y = np.asarray(xy, dtype=float).T
         lat, lon = self.frame.to_lla_many(y, x)
-        return [LLA(a, o, alt_m) for a, o in zip(lat.tolist(), lon.tolist(), strict=True)]
+        return LLA.many(lat, lon, alt_m)
 
     def ring_xy(self, ring: list[LatLon]) -> list[XY]:
         return [self.to_xy(lat, lon) for lat, lon in ring]
