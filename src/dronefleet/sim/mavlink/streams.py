@@ -17,6 +17,7 @@ from dronefleet.protocols.mavlink.codec import Message
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.gasfield import GasSensor
+from dronefleet.sim.mavlink.health import sensor_bits
 
 if TYPE_CHECKING:
     from dronefleet.sim.mavlink.copter import SimCopter
@@ -27,7 +28,6 @@ _GUIDED_FLAG_MODES = {
     CopterMode.AUTO, CopterMode.RTL, CopterMode.LOITER, CopterMode.GUIDED, CopterMode.CIRCLE,
     CopterMode.POSHOLD, CopterMode.BRAKE, CopterMode.SMART_RTL,
 }  # fmt: skip
-_SENSORS = 0x0020_FC2F  # gyro, accel, mag, baro, GPS, rate/attitude/yaw/z/xy control, motors
 _WALL_EPOCH_S = time.time()
 
 
@@ -52,8 +52,9 @@ def heartbeat(c: SimCopter, _: GasSensor | None) -> Message:
 
 def sys_status(c: SimCopter, _: GasSensor | None) -> Message:
     bat = c.vehicle.battery_state
+    present, enabled, health = sensor_bits(c)
     return mav.MAVLink_sys_status_message(
-        _SENSORS, _SENSORS, _SENSORS, 200,
+        present, enabled, health, 200,
         round(bat.voltage_v * 1000), round(bat.current_a * 100), round(bat.remaining_pct),
         0, 0, 0, 0, 0, 0,
     )  # fmt: skip
