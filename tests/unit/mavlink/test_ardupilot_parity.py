@@ -193,3 +193,127 @@ def test_mavftp_is_answered_at_once_so_ground_stations_fall_back_to_the_list(opc
     assert (seq, got, req_opcode) == (6, reply, opcode)
     assert (first if size else 0) == error
     assert msg.target_system == 255
+
+
+# -- item 4: missions, fences, rally points -------------------------------------------------------
+def _item(seq: int, cmd: int, lat: float, lon: float, z: float, kind: int = MISSION, p1: float = 0):
+    return m.MAVLink_mission_item_int_message(
+        1, 1, seq, m.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, cmd, 0, 1, p1, 0, 0, 0,
+        round(lat * 1e7), round(lon * 1e7), z, kind,
+    )  # fmt: skip
+
+
+def _serve(gcs: Gcs, answer: list, items: dict[int, m.MAVLink_message]) -> tuple[list[int], int]:
+    """Answer the vehicle's item requests from ``items``; (seqs asked, MISSION_ACK type)."""
+    asked: list[int] = []
+    while not of("MISSION_ACK", answer):
+        (request,) = of("MISSION_REQUEST_INT", answer)
+        asked.append(request.seq)
+        answer = gcs.send(items[request.seq])
+    return asked, of("MISSION_ACK", answer)[0].type
+
+
+def _upload(gcs: Gcs, items: list[m.MAVLink_message], kind: int = MISSION) -> int:
+    answer = gcs.send(m.MAVLink_mission_count_message(1, 1, len(items), kind))
+    return _serve(gcs, answer, dict(enumerate(items)))[1]
+
+
+def _download(gcs: Gcs, kind: int = MISSION) -> list[m.MAVLink_message]:
+    (count,) = of("MISSION_COUNT", gcs.send(m.MAVLink_mission_request_list_message(1, 1, kind)))
+    assert count.mission_type == kind
+    got = [
+        gcs.send(m.MAVLink_mission_request_int_message(1, 1, s, kind)) for s in range(count.count)
+    ]
+    return [of("MISSION_ITEM_INT", answer)[0] for answer in got]
+
+
+def _waypoints(n: int, z: float = 10) -> list[m.MAVLink_message]:
+    home = _item(0, m.MAV_CMD_NAV_WAYPOINT, 0, 0, 0)  # what QGroundControl puts there
+    return [home] + [
+        _item(s, m.MAV_CMD_NAV_WAYPOINT, HOME.lat + s * 1e-4, HOME.lon, z) for s in range(1, n)
+    ]
+
+
+def test_item_0_reads_back_as_home_even_for_an_empty_mission():
+    gcs = Gcs()
+    (home,) = _download(gcs)  # ArduPilot's mission always has home
+    assert _upload(gcs, _waypoints(3)) == m.MAV_MISSION_ACCEPTED
+    items = _download(gcs)
+    assert len(items) == 3 and items[0].seq == 0
+    for item in (home, items[0]):
+        assert (item.x, item.y) == (round(HOME.lat * 1e7), round(HOME.lon * 1e7))
+        assert item.z == pytest.approx(HOME.alt_m)
+    assert items[2].x == round((HOME.lat + 2e-4) * 1e7)
+
+
+def test_a_partial_write_replaces_only_items_start_to_end():
+    gcs = Gcs()
+    _upload(gcs, _waypoints(4))
+    new = {s: _item(s, m.MAV_CMD_NAV_WAYPOINT, HOME.lat, HOME.lon + s * 1e-4, 30) for s in (2, 3)}
+    answer = gcs.send(m.MAVLink_mission_write_partial_list_message(1, 1, 2, 3, MISSION))
+    assert _serve(gcs, answer, new) == ([2, 3], m.MAV_MISSION_ACCEPTED)
+    items = _download(gcs)
+    assert [it.z for it in items[1:]] == [10, 30, 30]
+    assert items[3].y == round((HOME.lon + 3e-4) * 1e7)
+    bad = gcs.send(m.MAVLink_mission_write_partial_list_message(1, 1, 3, 9, MISSION))
+    assert of("MISSION_ACK", bad)[0].type == m.MAV_MISSION_ERROR
+
+
+def test_fence_and_rally_points_are_stored_read_back_and_cleared_apart_from_the_mission():
+    gcs = Gcs()
+    vertex = m.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    corners = [(0, 0), (0, 1), (1, 1), (1, 0)]
+    fence = [
+        _item(s, vertex, HOME.lat + a * 1e-3, HOME.lon + b * 1e-3, 0, FENCE, p1=4)
+        for s, (a, b) in enumerate(corners)
+    ]
+    rally = [_item(s, m.MAV_CMD_NAV_RALLY_POINT, HOME.lat, HOME.lon, 20, RALLY) for s in (0, 1)]
+    _upload(gcs, _waypoints(3))
+    assert _upload(gcs, fence, FENCE) == m.MAV_MISSION_ACCEPTED
+    assert _upload(gcs, rally, RALLY) == m.MAV_MISSION_ACCEPTED
+    got = _download(gcs, FENCE)
+    assert [(it.command, it.x, it.y, it.mission_type) for it in got] == [
+        (vertex, f.x, f.y, FENCE) for f in fence
+    ]
+    assert len(_download(gcs, RALLY)) == 2 and len(_download(gcs)) == 3
+    assert gcs.copter.params.get("FENCE_TOTAL") == 4 and gcs.copter.params.get("RALLY_TOTAL") == 2
+    cleared = gcs.send(m.MAVLink_mission_clear_all_message(1, 1, FENCE))
+    assert (of("MISSION_ACK", cleared)[0].type, of("MISSION_ACK", cleared)[0].mission_type) == (
+        m.MAV_MISSION_ACCEPTED, FENCE,
+    )  # fmt: skip
+    assert _download(gcs, FENCE) == [] and len(_download(gcs, RALLY)) == 2
+    assert len(_download(gcs)) == 3
+
+
+# -- item 5: landing ------------------------------------------------------------------------------
+def _land(gcs: Gcs) -> tuple[float, float]:
+    """LAND from where it is: (vehicle seconds to touch down, seconds more until disarmed)."""
+    gcs.command(m.MAV_CMD_NAV_LAND)
+    v, t0 = gcs.copter.vehicle, gcs.copter.vehicle.time_s
+    while v.in_air and v.time_s - t0 < 90:
+        gcs.run(0.05)
+    down = v.time_s
+    while v.armed and v.time_s - down < 30:
+        gcs.run(0.05)
+    return down - t0, v.time_s - down
+
+
+def test_landing_from_10_m_takes_ardupilots_time_and_the_land_detector_disarms():
+    gcs = Gcs()
+    gcs.guided_at(10)
+    descent_s, disarm_s = _land(gcs)
+    assert 18 <= descent_s <= 22  # all below LAND_ALT_LOW (10 m): LAND_SPEED, 0.5 m/s
+    assert 0.9 <= disarm_s <= 1.5  # ModeLand disarms on land_complete, not after DISARM_DELAY
+    beat = of("HEARTBEAT", gcs.transport_log())[-1]
+    assert not beat.base_mode & m.MAV_MODE_FLAG_SAFETY_ARMED and beat.custom_mode == 9  # LAND
+
+
+@pytest.mark.parametrize(("land_speed_high", "expected_s"), [(0, 33.3), (300, 26.7)])
+def test_above_land_alt_low_it_descends_at_land_speed_high_or_wpnav_speed_dn(
+    land_speed_high, expected_s
+):
+    gcs = Gcs()
+    gcs.send(m.MAVLink_param_set_message(1, 1, b"LAND_SPEED_HIGH", land_speed_high, 4))
+    gcs.guided_at(30)
+    descent_s, _ = _land(gcs)  # 20 m at 1.5 (or 3) m/s, then 10 m at 0.5 m/s
+    assert descent_s == pytest.approx(expected_s, abs=1.5)

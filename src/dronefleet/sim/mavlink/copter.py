@@ -90,6 +90,8 @@ class SimCopter:
         self.camera = camera
         self.params = params or ParamTable()
         self.params.on_change(self._param_changed)
+        if camera is not None:  # a camera the autopilot triggers (CAM1_TYPE 1, servo)
+            self.params.set("CAM1_TYPE", 1)
         self.events = events or CopterEvents()
         self.mode = CopterMode.STABILIZE
         self.mission: list[MissionItem] = []

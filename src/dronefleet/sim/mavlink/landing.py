@@ -1,7 +1,8 @@
 """How the simulated Copter comes down and disarms, as ArduPilot Copter 4.5 does (issue 10, item 5).
 
-- A landing descends at LAND_SPEED_HIGH (or WPNAV_SPEED_DN when that is 0) down to LAND_ALT_LOW,
-  then at LAND_SPEED (ArduCopter ``Mode::get_land_descent_speed``): from 10 m, ~20 s.
+- A landing descends at LAND_SPEED_HIGH (or WPNAV_SPEED_DN when that is 0), slowing down to reach
+  LAND_SPEED by LAND_ALT_LOW, then at LAND_SPEED (ArduCopter ``Mode::land_run_vertical_control``
+  and ``get_land_descent_speed``): from 10 m, ~20 s; from 30 m, ~34 s.
 - Once down, the land detector needs a second on the ground (LAND_DETECTOR_TRIGGER_SEC) before
   it says landed, and a landing (LAND, RTL, a mission's LAND) then disarms (``ModeLand::run``:
   "disarm when the landing detector says we've landed"); it is not DISARM_DELAY that ends it.
@@ -11,6 +12,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -44,8 +46,11 @@ class Landing:
         high = p.get("LAND_SPEED_HIGH") / 100.0
         slow = p.get("LAND_SPEED") / 100.0
         if v.landing:
-            low = v.relative_alt_m < p.get("LAND_ALT_LOW") / 100.0
-            descent = slow if low and slow > 0 else (high if high > 0 else fast)
+            above_low_m = v.relative_alt_m - p.get("LAND_ALT_LOW") / 100.0
+            descent = high if high > 0 else fast
+            if slow > 0:  # slowing down to LAND_SPEED by LAND_ALT_LOW (ArduPilot's sqrt_controller)
+                braking = math.sqrt(2 * v.limits.accel_z_mps2 * max(above_low_m, 0.0))
+                descent = max(min(descent, slow + braking), slow)
         else:
             descent = fast
         if descent > 0 and v.limits.max_descent_mps != descent:
