@@ -75,6 +75,8 @@ class SimVehicle:
             max_speed_mps, max_climb_mps, max_descent_mps, accel_mps2, accel_z_mps2
         )
         self.arming_s = arming_s
+        #: Disarm as soon as a landing touches down (an autopilot may rather wait, see sim.mavlink)
+        self.disarm_on_touchdown = True
         self.reboot_s = reboot_s
         self.failsafe_pct = failsafe_pct
         self.battery = Battery(
@@ -136,8 +138,9 @@ class SimVehicle:
         self._kin.rest_on_ground()
         self._phase = _Phase.GROUND
         self._target = None
-        self._armed = False
-        log.info("%s: landed and disarmed", self.vehicle_id)
+        if self.disarm_on_touchdown:
+            self._armed = False
+        log.info("%s: landed", self.vehicle_id)
 
     def _check_battery(self) -> None:
         pct = self.battery.remaining_pct
@@ -153,8 +156,9 @@ class SimVehicle:
                 self._armed = False
 
     # -- commands -----------------------------------------------------------------------------
-    def arm(self) -> None:
-        """Start arming; the vehicle is armed ``arming_s`` (3 s) later."""
+    def arm(self, *, at_once: bool = False) -> None:
+        """Start arming; the vehicle is armed ``arming_s`` (3 s) later, or now with ``at_once``
+        (an ArduPilot autopilot arms before it acknowledges the command)."""
         self._refuse_if_rebooting()
         if self._armed:
             raise VehicleError(f"{self.vehicle_id}: already armed")
@@ -169,7 +173,7 @@ class SimVehicle:
                 " charge or swap it before arming"
             )
         self._arming_since = self._t
-        if self.arming_s <= 0:
+        if at_once or self.arming_s <= 0:
             self._arming_since, self._armed = None, True
 
     def disarm(self, force: bool = False) -> None:

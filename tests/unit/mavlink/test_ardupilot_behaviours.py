@@ -128,6 +128,7 @@ def test_landing_from_10_m_takes_ardupilots_time_and_ends_disarmed():
         run(copter, 0.05)
         seconds += 0.05
     assert 15 <= seconds <= 25
+    run(copter, 1.1)  # the land detector's second on the ground, then ModeLand disarms
     assert not copter.vehicle.armed
 
 

@@ -3,7 +3,7 @@
 Item 8: streams go on to a ground station that has gone quiet (they stopped 9.9 s after it
 stopped sending). Item 9: MAV_CMD_GET_HOME_POSITION is answered with HOME_POSITION (it was
 UNSUPPORTED), and MISSION_CLEAR_ALL is refused while the vehicle flies its mission in AUTO (it was
-accepted). Item 6: item 0 reads back as home; MISSION_WRITE_PARTIAL_LIST is honoured.
+accepted).
 """
 
 from __future__ import annotations
@@ -94,30 +94,3 @@ def test_a_speed_change_lasts_until_the_mode_changes():
     copter.set_mode(CopterMode.LOITER)
     copter.set_mode(CopterMode.GUIDED)
     assert copter.vehicle.limits.max_speed_mps == default
-
-
-def _from_ground(msg):
-    msg._header = mav.MAVLink_header(0, 0, 0, srcSystem=255, srcComponent=190)
-    return msg
-
-
-def test_item_0_reads_back_as_home_and_a_partial_write_changes_only_its_items():
-    """Item 6: MAVProxy's `wp changealt` (MISSION_WRITE_PARTIAL_LIST) reported success and
-    changed nothing; item 0 did not read back as home."""
-    copter = make()
-    sent: list = []
-    transfer = MissionTransfer(copter, sent.append)
-    lat, lon = int(HOME.lat * 1e7), int(HOME.lon * 1e7)
-    items = [MissionItem(mav.MAV_CMD_NAV_WAYPOINT, x=lat + 1000 * k, y=lon, z=10) for k in range(4)]
-    copter.on_mission_replaced(items)
-    transfer.handle(_from_ground(mav.MAVLink_mission_request_int_message(1, 1, 0, 0)))
-    home = sent[-1]
-    assert (home.x, home.y, home.z) == (round(HOME.lat * 1e7), round(HOME.lon * 1e7), HOME.alt_m)
-    transfer.handle(_from_ground(mav.MAVLink_mission_write_partial_list_message(1, 1, 2, 2, 0)))
-    assert sent[-1].get_type() == "MISSION_REQUEST_INT" and sent[-1].seq == 2
-    changed = MissionItem(mav.MAV_CMD_NAV_WAYPOINT, x=lat + 2000, y=lon, z=25)
-    transfer.handle(_from_ground(changed.to_message(1, 1, 2)))
-    assert sent[-1].get_type() == "MISSION_ACK" and sent[-1].type == mav.MAV_MISSION_ACCEPTED
-    assert [item.z for item in copter.mission] == [10, 10, 25, 10]
-    transfer.handle(_from_ground(mav.MAVLink_mission_write_partial_list_message(1, 1, 3, 9, 0)))
-    assert sent[-1].type == mav.MAV_MISSION_INVALID_SEQUENCE  # past the end: refused

@@ -56,7 +56,9 @@ class MissionItem:
     def lon(self) -> float:
         return self.y / 1e7
 
-    def to_message(self, target_system: int, target_component: int, seq: int) -> Message:
+    def to_message(
+        self, target_system: int, target_component: int, seq: int, mission_type: int = MISSION
+    ) -> Message:
         return mav.MAVLink_mission_item_int_message(
             target_system,
             target_component,
@@ -72,7 +74,7 @@ class MissionItem:
             self.x,
             self.y,
             self.z,
-            MISSION,
+            mission_type,
         )
 
     @classmethod

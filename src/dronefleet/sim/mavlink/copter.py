@@ -13,10 +13,11 @@ What ArduPilot does that a forgiving simulator would not (issue 17; ArduPilot up
   waypoint, whose controller keeps the motors idle while landed (ArduCopter/mode_guided.cpp,
   ``ModeGuided::set_destination`` and ``wp_control_run``): the vehicle stays down;
 - armed, on the ground and idle for DISARM_DELAY seconds, it disarms
-  (ArduCopter/motors.cpp, ``Copter::auto_disarm_check``);
+  (ArduCopter/motors.cpp, ``Copter::auto_disarm_check``); a landing disarms once the land
+  detector says landed (:mod:`.landing`);
 - AUTO on the ground does not start the mission until MISSION_START (``auto_armed``);
-- a landing descends at WPNAV_SPEED_DN down to LAND_ALT_LOW, then at LAND_SPEED
-  (ArduCopter/land_detector and mode_land: ``get_land_descent_speed``), so 10 m take ~20 s.
+- a landing descends at LAND_SPEED_HIGH or WPNAV_SPEED_DN down to LAND_ALT_LOW, then at
+  LAND_SPEED (``get_land_descent_speed``), so 10 m take ~20 s (:mod:`.landing`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ from dronefleet.protocols.mavlink.items import MissionItem
 from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.mavlink.auto import MissionRunner
+from dronefleet.sim.mavlink.health import prearm_failure
+from dronefleet.sim.mavlink.landing import Landing
 from dronefleet.sim.mavlink.params import ParamTable
 from dronefleet.sim.mavlink.trigger import DistanceTrigger
 from dronefleet.sim.vehicle import SimVehicle, VehicleError
@@ -87,6 +90,8 @@ class SimCopter:
         self.camera = camera
         self.params = params or ParamTable()
         self.params.on_change(self._param_changed)
+        if camera is not None:  # a camera the autopilot triggers (CAM1_TYPE 1, servo)
+            self.params.set("CAM1_TYPE", 1)
         self.events = events or CopterEvents()
         self.mode = CopterMode.STABILIZE
         self.mission: list[MissionItem] = []
@@ -99,7 +104,9 @@ class SimCopter:
         self._was_rebooting = False
         self.picture_count = 0
         self.auto_armed = False  # AUTO may fly its mission (MISSION_START, or AUTO in the air)
-        self._idle_since_s: float | None = None
+        self.landing = Landing(self)
+        #: The last pre-arm checks' result (ArduPilot runs them while disarmed, at 1 Hz).
+        self.prearm_passed = prearm_failure(self) is None
 
     # -- time ---------------------------------------------------------------------------------
     def boot_ms(self) -> int:
@@ -155,13 +162,16 @@ class SimCopter:
 
     # -- commands -----------------------------------------------------------------------------
     def arm(self, force: bool = False) -> None:
+        """Arm now, as ArduPilot does (AP_Arming::arm runs inside the command handler, so the
+        COMMAND_ACK goes out armed); the SimVehicle's own arming delay (3 s, the seed's Flight
+        Controller) would fail a takeoff sent right after the ACK (issue 10, item 1)."""
         v = self.vehicle
-        if v.armed or v.arming:
+        if v.armed:
             return
         if self.mode in _NOT_ARMABLE and not force:
             raise CommandRefused("Arm: Mode not armable")
         try:
-            v.arm()
+            v.arm(at_once=True)
         except VehicleError as exc:
             raise CommandRefused("Arm: " + _reason(exc, v)) from None
 
@@ -263,33 +273,15 @@ class SimCopter:
             if v.armed and self.auto_armed and not self.runner.running and not self.runner.finished:
                 self.runner.start()
             self.runner.update()
+        if not v.armed:
+            self.prearm_passed = prearm_failure(self) is None
         if self.camera is not None and v.armed:
             self.trigger.update(v.position_ned)
-        self._land_speed()
-        self._auto_disarm()
+        self.landing.update()
 
-    def _land_speed(self) -> None:
-        v = self.vehicle
-        fast = self.params.get("WPNAV_SPEED_DN") / 100.0
-        slow = self.params.get("LAND_SPEED") / 100.0
-        low = v.landing and v.relative_alt_m < self.params.get("LAND_ALT_LOW") / 100.0
-        descent = slow if low and slow > 0 else fast
-        if fast > 0 and v.limits.max_descent_mps != descent:
-            v.limits = replace(v.limits, max_descent_mps=descent)
-
-    def _auto_disarm(self) -> None:
-        v = self.vehicle
-        delay_s = self.params.get("DISARM_DELAY")
-        if not v.armed or v.in_air or delay_s <= 0:
-            self._idle_since_s = None
-            return
-        if self._idle_since_s is None:
-            self._idle_since_s = v.time_s
-        elif v.time_s - self._idle_since_s >= delay_s:
-            self._idle_since_s = None
-            v.disarm()
-            self._leave_mode()
-            self.events.statustext(mav.MAV_SEVERITY_INFO, "Disarming motors (auto disarm)")
+    def landed_and_disarmed(self) -> None:
+        """Disarmed on the ground by the land detector or DISARM_DELAY (:mod:`.landing`)."""
+        self._leave_mode()
 
     def rtl_step_for_mission(self) -> bool:
         """RTL as a mission item (the runner calls this): True once landed."""

@@ -33,6 +33,9 @@ log = logging.getLogger(__name__)
 MAX_PEERS = 8
 
 _STATUSTEXT_LEN = 50
+#: Bytes of MAVLink frames packed into one datagram when a burst goes out (the parameter list):
+#: under a typical MTU, and few enough datagrams that no socket buffer overflows.
+_BURST_BYTES = 1400
 _POSITION_TARGET = mav.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT
 
 
@@ -141,9 +144,8 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
     def _param(self, msg: Message) -> None:
         params = self.copter.params
         kind = msg.get_type()
-        if kind == "PARAM_REQUEST_LIST":
-            for name in params.names():
-                self.send(params.message(name))
+        if kind == "PARAM_REQUEST_LIST":  # all at once, not paced (issue 10, item 3)
+            self.send_burst([params.message(name) for name in params.names()])
         elif kind == "PARAM_REQUEST_READ":
             name = text_field(msg.param_id)
             if msg.param_index >= 0:
@@ -166,6 +168,23 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         data = self._encoder.pack(msg)
         for addr in list(self.peers):
             self._transport.sendto(data, addr)
+
+    def send_burst(self, msgs: list[Message]) -> None:
+        """Many messages at once, several frames to a datagram (ground stations parse every
+        frame in a datagram, as they must for ArduPilot's UDP links)."""
+        if self._transport is None or not self.peers:
+            return
+        datagrams, chunk = [], b""
+        for msg in msgs:
+            frame = self._encoder.pack(msg)
+            if chunk and len(chunk) + len(frame) > _BURST_BYTES:
+                datagrams.append(chunk)
+                chunk = b""
+            chunk += frame
+        datagrams.append(chunk)
+        for addr in list(self.peers):
+            for data in datagrams:
+                self._transport.sendto(data, addr)
 
     def send_now(self, msg_id: int) -> bool:
         build = BUILDERS.get(msg_id)

@@ -51,10 +51,6 @@ class MavlinkSimServer:
         index = len(self.endpoints)
         system_id = self.first_system_id + index
         vehicle_id = f"SIM_{system_id}"
-        # ArduPilot arms at once and only then ACKs the command (AP_Arming::arm runs inside the
-        # COMMAND_LONG handler): MAVSDK's arm() then takeoff() needs it (issue 10, item 1).
-        # The seed's dRonin took 3 s; that stays the default of the other simulators.
-        params.setdefault("arming_s", 0.0)
         vehicle = self.world.add_vehicle(vehicle_id, home, **params)
         camera = SimCamera(vehicle, self.pictures_dir)
         copter = SimCopter(vehicle, camera=camera, params=ParamTable())

@@ -17,6 +17,7 @@ from dronefleet.protocols.mavlink.codec import Message
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.protocols.mavlink.modes import CopterMode
 from dronefleet.sim.gasfield import GasSensor
+from dronefleet.sim.mavlink.health import sensor_bits
 
 if TYPE_CHECKING:
     from dronefleet.sim.mavlink.copter import SimCopter
@@ -27,7 +28,6 @@ _GUIDED_FLAG_MODES = {
     CopterMode.AUTO, CopterMode.RTL, CopterMode.LOITER, CopterMode.GUIDED, CopterMode.CIRCLE,
     CopterMode.POSHOLD, CopterMode.BRAKE, CopterMode.SMART_RTL,
 }  # fmt: skip
-_SENSORS = 0x0020_FC2F  # gyro, accel, mag, baro, GPS, rate/attitude/yaw/z/xy control, motors
 _WALL_EPOCH_S = time.time()
 
 
@@ -51,21 +51,8 @@ def heartbeat(c: SimCopter, _: GasSensor | None) -> Message:
 
 
 def sys_status(c: SimCopter, _: GasSensor | None) -> Message:
-    """Sensors present, enabled and healthy as ArduPilot Copter reports them (issue 10, item 2):
-    besides the flight sensors, the battery monitor, the geofence (present always, enabled with
-    FENCE_ENABLE, healthy unless breached: the sim never breaches) and the pre-arm checks
-    (healthy when they pass: MAVSDK's ``health.is_armable``). Without the geofence bits MAVProxy
-    announced a "fence breach" at every connect."""
-    v = c.vehicle
-    bat = v.battery_state
-    extra = mav.MAV_SYS_STATUS_SENSOR_BATTERY | mav.MAV_SYS_STATUS_PREARM_CHECK
-    present = _SENSORS | extra | mav.MAV_SYS_STATUS_GEOFENCE
-    enabled = _SENSORS | extra
-    if c.params.get("FENCE_ENABLE"):
-        enabled |= mav.MAV_SYS_STATUS_GEOFENCE
-    health = _SENSORS | mav.MAV_SYS_STATUS_GEOFENCE
-    if bat.remaining_pct > v.failsafe_pct:  # the one pre-arm check the sim can fail
-        health |= mav.MAV_SYS_STATUS_SENSOR_BATTERY | mav.MAV_SYS_STATUS_PREARM_CHECK
+    bat = c.vehicle.battery_state
+    present, enabled, health = sensor_bits(c)
     return mav.MAVLink_sys_status_message(
         present, enabled, health, 200,
         round(bat.voltage_v * 1000), round(bat.current_a * 100), round(bat.remaining_pct),
