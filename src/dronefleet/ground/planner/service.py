@@ -26,9 +26,9 @@ from dronefleet.ground.planner.models import (
     LegState,
     MissionRecord,
     MissionState,
-    StepReport,
 )
 from dronefleet.ground.planner.options import LegRole
+from dronefleet.ground.planner.progress import apply_progress
 from dronefleet.ground.planner.store import MissionStore
 from dronefleet.ground.planner.units import remaining
 from dronefleet.ground.planner.worker import PlanningWorker
@@ -284,7 +284,8 @@ class MissionPlanner:
             if reconcile.answers_a_report_request(msg):
                 self.spawn(reconcile.forgotten(self, record, leg), f"forgotten:{leg.leg_id}")
                 return
-            self._apply(record, leg, msg)
+            if apply_progress(record, leg, msg):  # a step reported for the first time
+                self._path_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
             await self.save(record)
         data = msg.model_dump(mode="json", exclude_none=True)
         self.emit("progress", **{**data, "mission_id": mission_id, "leg_id": leg.leg_id})
@@ -294,50 +295,6 @@ class MissionPlanner:
 
             self._checking.add(leg.leg_id)
             self.spawn(early.check(self, record, leg), f"early:{leg.leg_id}")
-
-    def _apply(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
-        event = msg.event
-        if event is ProgressEvent.ACCEPTED and leg.state is LegState.SENT:
-            leg.state = LegState.RUNNING
-            leg.started_vehicle_s = msg.vehicle_time_s
-            if record.started_at is None:
-                record.started_at = timestamp_s()
-        elif event is ProgressEvent.STEP and msg.step_index is not None:
-            self._step_done(record, leg, msg, msg.step_index)
-        elif not leg.active:
-            return
-        elif event is ProgressEvent.COMPLETED:
-            leg.state = LegState.COMPLETED
-            leg.ended_vehicle_s = msg.vehicle_time_s
-        elif event in (ProgressEvent.FAILED, ProgressEvent.REJECTED):
-            leg.state = LegState.FAILED
-            leg.error = msg.error
-            leg.ended_vehicle_s = msg.vehicle_time_s
-        elif event is ProgressEvent.STOPPED:
-            leg.state = LegState.STOPPED
-            leg.ended_vehicle_s = msg.vehicle_time_s
-
-    def _step_done(
-        self, record: MissionRecord, leg: Leg, msg: MissionProgress, drone_step: int
-    ) -> None:
-        if any(r.drone_step == drone_step for r in leg.reports):
-            return  # a duplicate delivery (QoS 1 is at-least-once)
-        index = leg.global_index(drone_step)
-        position = msg.position.model_dump(mode="json") if msg.position else None
-        leg.reports.append(
-            StepReport(
-                index=index,
-                drone_step=drone_step,
-                command=str(msg.command),
-                position=position,
-                started_s=msg.step_started_s,
-                duration_s=msg.step_duration_s,
-                vehicle_time_s=msg.vehicle_time_s,
-            )
-        )
-        if index is not None:
-            record.done.setdefault(index, leg.drone_id)
-        self._path_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
 
     async def after_progress(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
         """Close the mission when nothing is left to fly, or fail it when a leg failed."""
