@@ -55,9 +55,17 @@ async def test_the_drone_flies_on_through_a_broker_outage_and_no_report_is_lost(
                            "--home", "40.63,-8.659,10", "--speedup", str(SPEEDUP))  # fmt: skip
         with process(drone, tmp_path / "drone.log"):
             ground = BrokerClient(url, "outage-ground", persistent_session=True)
+            beats: list[bytes] = []
+
+            async def beat(_topic: str, payload: bytes) -> None:
+                beats.append(payload)
+
             await ground.subscribe("QUAD_1/mission/out", collect, qos=1)
+            await ground.subscribe("QUAD_1/heartbeats/out", beat)
             await ground.start(timeout_s=20)
-            await asyncio.sleep(2.0)  # the drone is up
+            async with asyncio.timeout(60):  # the drone is up: it publishes only once subscribed
+                while not beats:
+                    await asyncio.sleep(0.05)
             await ground.publish("QUAD_1/mission/in", mission(), qos=1)
             async with asyncio.timeout(60):
                 while events("step") < 4:

@@ -63,7 +63,9 @@ async def test_a_lost_link_stops_the_mission_and_the_drone_holds_or_goes_home(ac
             await ground.subscribe("QUAD_1/mission/out", collect, qos=1)
             await ground.subscribe("QUAD_1/telemetry/out", sample)
             await ground.start(timeout_s=20)
-            await asyncio.sleep(2.0)  # the drone is up
+            async with asyncio.timeout(60):  # the drone is up: it publishes only once subscribed
+                while not telemetry:
+                    await asyncio.sleep(0.05)
             await ground.publish("QUAD_1/mission/in", mission(), qos=1)
             async with asyncio.timeout(60):
                 while steps_done() < 6:  # past its second waypoint
