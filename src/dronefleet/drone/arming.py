@@ -10,12 +10,19 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from dronefleet.drone.takeover import ModeLedger
 from dronefleet.vehicle.base import FcRefused, FlightController
 
 
 class ArmingSwitch:
-    def __init__(self, fc: FlightController, on_event: Callable[..., Any] | None = None) -> None:
+    def __init__(
+        self,
+        fc: FlightController,
+        on_event: Callable[..., Any] | None = None,
+        modes: ModeLedger | None = None,
+    ) -> None:
         self.fc = fc
+        self.modes = modes or ModeLedger(fc)  # arming may switch modes (MAVLink: GUIDED first)
         self._on_event = on_event or (lambda *a, **k: None)
 
     @property
@@ -27,7 +34,8 @@ class ArmingSwitch:
             return {"armed": True, "note": "already armed"}
         started = self.fc.clock.now()
         self._on_event("arming", requested_s=started)
-        await self.fc.arm()
+        async with self.modes.choosing():
+            await self.fc.arm()
         took = self.fc.clock.now() - started
         self._on_event("armed", took_s=took)
         return {"armed": True, "arming_time_s": round(took, 3)}
@@ -41,6 +49,7 @@ class ArmingSwitch:
                 "refusing to disarm in flight: the motors would stop; land first, "
                 "or send force=true to disarm anyway"
             )
-        await self.fc.disarm(force=force)
+        async with self.modes.choosing():
+            await self.fc.disarm(force=force)
         self._on_event("disarmed", forced=force, in_air=state.in_air)
         return {"armed": False, "forced": force}

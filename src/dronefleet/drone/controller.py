@@ -63,7 +63,7 @@ class DroneController:
             max_altitude_m=config.max_altitude_m,
             tolerance=Tolerance(config.horizontal_tolerance_m, config.vertical_tolerance_m),
         )
-        self.arming = ArmingSwitch(fc, self._event)
+        self.arming = ArmingSwitch(fc, self._event, self.navigation.modes)
         self.requester = Requester(client)
         self.camera_trigger = CameraTrigger(fc, lambda: self.gear(GearQuery.CAPTURE))
         self.mission_id: str | None = None

@@ -22,6 +22,7 @@ from dronefleet.drone.controller import CommandError, DroneController
 from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.outbox import Outbox
 from dronefleet.drone.state import position_of
+from dronefleet.drone.takeover import OPERATOR, POLL_S, Paused, Takeover
 from dronefleet.errors import Failed
 from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError, decode, decode_object
@@ -39,6 +40,7 @@ from dronefleet.messaging.missions import (
 )
 from dronefleet.messaging.status import Alarm
 from dronefleet.messaging.topics import Channel, Direction
+from dronefleet.tasks import cancel_and_wait
 from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
@@ -76,6 +78,10 @@ class MissionWorker:
         # Every report of the last missions, re-sent on request to a planner that missed some.
         self.history: OrderedDict[str, list[MissionProgress]] = OrderedDict()
         self._replayed: dict[str, float] = {}  # mission id -> vehicle time of its last replay
+        self._steps: list[tuple[int, Any]] = []  # the mission's steps, with their indices
+        self._done: set[int] = set()  # indices of its steps reported done
+        self.paused: Paused | None = None  # a mission someone else took the vehicle from
+        self._asked: Takeover | None = None  # a pause asked for, for the running mission
 
     async def start(self) -> None:
         await self.client.subscribe(
@@ -115,6 +121,13 @@ class MissionWorker:
             await self._replay(request.mission_id, request_id)
             return
         async with self._lock:
+            if request.action is MissionAction.RESUME:
+                await self._resume(request.mission_id, request_id)
+                return
+            if request.action is MissionAction.PAUSE:  # done by _run within POLL_S
+                if self.running and request.mission_id == self.mission_id:
+                    self._asked = Takeover("HOLD", OPERATOR, None, round(self.clock.now(), 3))
+                return
             if request.action is MissionAction.STOP:
                 stopped = self.mission_id
                 await self._cancel_current(reason="stopped on request", request_id=request_id)
@@ -131,6 +144,7 @@ class MissionWorker:
             mission_id = request.mission_id or f"m-{int(timestamp_s() * 1000)}"
             await self._cancel_current(reason=f"replaced by mission {mission_id}")
             self.queue = deque(enumerate(steps, start=request.start_index))
+            self._steps, self._done, self._asked = list(self.queue), set(), None
             self.mission_id = mission_id
             self.controller.mission_id = mission_id
             await self._report(
@@ -153,7 +167,15 @@ class MissionWorker:
 
     async def _cancel_current(self, *, reason: str = "", request_id: str | None = None) -> None:
         task, mission_id = self._task, self.mission_id
-        if task is not None and not task.done():
+        paused, self.paused = self.paused, None
+        if paused is not None:  # nothing runs: the vehicle is someone else's until now
+            await self._report(
+                ProgressEvent.STOPPED,
+                paused.mission_id,
+                request_id=request_id,
+                error=f"{reason or 'stopped'} (while paused)",
+            )
+        elif task is not None and not task.done():
             await self.controller.camera_trigger.stop()
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
@@ -172,6 +194,91 @@ class MissionWorker:
 
     # -- running -----------------------------------------------------------------------------
     async def _run(
+        self, mission_id: str, count: int, start_index: int, onboard_requested: bool | None = None
+    ) -> None:
+        """Fly the mission, looking at the flight mode every telemetry period: a mode this
+        drone did not choose pauses it (drone/takeover.py)."""
+        flying = asyncio.create_task(
+            self._fly(mission_id, count, start_index, onboard_requested), name=f"fly:{mission_id}"
+        )
+        modes = self.controller.navigation.modes
+        try:
+            while not flying.done():
+                taken, self._asked = self._asked or modes.takeover(), None
+                if taken is not None:
+                    await cancel_and_wait(flying)
+                    if taken.by == OPERATOR and self._in_air():
+                        await self.controller.navigation.hold()
+                    await self._pause(mission_id, count, start_index, taken)
+                    return
+                tick = asyncio.ensure_future(self.clock.sleep(POLL_S))
+                await asyncio.wait({flying, tick}, return_when=asyncio.FIRST_COMPLETED)
+                await cancel_and_wait(tick)
+            flying.result()
+        finally:
+            await cancel_and_wait(flying)
+
+    async def _pause(self, mission_id: str, count: int, start_index: int, taken: Takeover) -> None:
+        await self.controller.camera_trigger.stop()
+        paused = Paused(mission_id, count, start_index, self._steps, set(self._done), taken)
+        self.paused = paused
+        left = paused.left()
+        log.warning("%s: mission %s %s", self.controller.drone_id, mission_id, taken.describe())
+        await self._report(
+            ProgressEvent.PAUSED,
+            mission_id,
+            step_index=left[0][0] if left else None,
+            step_count=count,
+            error=taken.describe(),
+            result=taken.fields(),
+        )
+
+    async def _resume(self, mission_id: str, request_id: str | None) -> None:
+        """Fly on with a paused mission: take the vehicle back (on to its goal), then the steps
+        not done, from the companion computer. Refused (still paused) on the ground."""
+        paused = self.paused
+        if paused is None or paused.mission_id != mission_id:
+            await self._report(
+                ProgressEvent.REJECTED,
+                mission_id,
+                request_id=request_id,
+                ok=False,
+                error=f"mission {mission_id!r} is not paused on this drone",
+            )
+            return
+        state, left = self.controller.fc.state(), paused.left()
+        why = None if state.armed and state.in_air else "the vehicle is on the ground"
+        if why is None and (not left or left[0][1].command is not Command.NAVIGATE):
+            try:
+                await self.controller.navigation.resume()
+            except (CommandError, FcError) as exc:
+                why = str(exc)
+        if why is not None:
+            await self._report(
+                ProgressEvent.PAUSED,
+                mission_id,
+                request_id=request_id,
+                ok=False,
+                error=f"resume refused: {why}; still {paused.takeover.describe()}",
+                result=paused.takeover.fields(),
+            )
+            return
+        self.paused = None
+        self.controller.navigation.modes.adopt()  # the steps left take it from here
+        await self._report(
+            ProgressEvent.RESUMED,
+            mission_id,
+            request_id=request_id,
+            step_index=left[0][0] if left else None,
+            step_count=paused.count,
+        )
+        self.queue = deque(left)
+        self._task = asyncio.create_task(
+            self._run(mission_id, paused.count, paused.start_index, onboard_requested=False),
+            name=f"mission:{mission_id}",
+        )
+
+    async def _fly(
         self, mission_id: str, count: int, start_index: int, onboard_requested: bool | None = None
     ) -> None:
         mission_started = self.clock.now()
@@ -321,6 +428,8 @@ class MissionWorker:
     async def publish(self, progress: MissionProgress) -> None:
         """Publish a report (QoS 1) and keep it for :meth:`_replay` (not a rejection: it answers a
         request that never became a mission)."""
+        if progress.event is ProgressEvent.STEP and progress.mission_id == self.mission_id:
+            self._done.add(progress.step_index if progress.step_index is not None else -1)
         if progress.mission_id and progress.event is not ProgressEvent.REJECTED:
             kept = self.history.setdefault(progress.mission_id, [])
             kept.append(progress)

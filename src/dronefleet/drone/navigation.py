@@ -20,6 +20,7 @@ import logging
 from dataclasses import dataclass
 
 from dronefleet.clock import wait_until
+from dronefleet.drone.takeover import ModeLedger
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.vehicle.base import FcError, FcRefused, FlightController
@@ -71,13 +72,15 @@ class NavigationProcessor:
         self.landing = False  # after a land request, the goal is being on the ground
         self.takeoff_height_m: float | None = None  # the take-off climb in progress, if any
         self._homing: asyncio.Task[None] | None = None  # our RTL's landing, once home
+        self.modes = ModeLedger(fc)  # the flight modes we chose (drone/takeover.py)
 
     # -- requests ----------------------------------------------------------------------------
     async def takeoff(self, altitude_m: float | None = None) -> LLA:
         height = self.takeoff_altitude_m if altitude_m is None else altitude_m
         self._check_height(height)
         self._stop_homing()
-        await self.fc.takeoff(height)
+        async with self.modes.choosing():
+            await self.fc.takeoff(height)
         self.landing = False
         self.takeoff_height_m = height
         here = self.fc.position()
@@ -110,7 +113,8 @@ class NavigationProcessor:
         self._stop_homing()
         native = getattr(self.fc, "return_to_launch", None)
         if native is not None:
-            await native()
+            async with self.modes.choosing():
+                await native()
             self.goal, self.landing, self.takeoff_height_m = None, True, None
             return home
         if not self.fc.state().in_air:
@@ -130,7 +134,8 @@ class NavigationProcessor:
             poll_s=0.1,
         )
         if arrived and self._homing is asyncio.current_task():
-            await self.fc.land()
+            async with self.modes.choosing():
+                await self.fc.land()
             self.goal = None
             log.info("RTL: home at %.6f, %.6f, landing", home.lat, home.lon)
 
@@ -141,7 +146,8 @@ class NavigationProcessor:
 
     async def land(self) -> None:
         self._stop_homing()
-        await self.fc.land()
+        async with self.modes.choosing():
+            await self.fc.land()
         self.goal = None
         self.takeoff_height_m = None
         self.landing = True
@@ -149,9 +155,19 @@ class NavigationProcessor:
     async def hold(self) -> LLA:
         self._stop_homing()
         here = self.fc.position()
-        await self.fc.hold()
+        async with self.modes.choosing():
+            await self.fc.hold()
         self.goal = here
         return here
+
+    async def resume(self) -> None:
+        """Take the vehicle back after a takeover (drone/takeover.py): on to the goal it was
+        flying to, or down where it is if it was landing."""
+        homing = self._homing is not None and not self._homing.done()
+        if self.landing and not homing:
+            await self.land()
+        elif self.goal is not None:
+            await self._go(self.goal)
 
     # -- state -------------------------------------------------------------------------------
     def goal_reached(self, tolerance: Tolerance | None = None) -> bool:
@@ -222,7 +238,8 @@ class NavigationProcessor:
         await self._airborne(target)
         if self._homing is not None and target != self.goal:
             self._stop_homing()  # a new destination ends an RTL of ours
-        await self.fc.goto(target)
+        async with self.modes.choosing():
+            await self.fc.goto(target)
         self.goal = target
         self.landing = self._homing is not None and not self._homing.done()
         return target

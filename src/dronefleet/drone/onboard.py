@@ -193,7 +193,8 @@ async def fly(
     except asyncio.CancelledError:
         with contextlib.suppress(Exception):
             if fc.state().mode is FlightMode.MISSION:
-                await fc.hold()  # stop the autopilot's mission too
+                async with worker.controller.navigation.modes.choosing():
+                    await fc.hold()  # stop the autopilot's mission too
         raise
     finally:
         outbox.put_nowait(None)
@@ -254,7 +255,8 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
     pump = asyncio.create_task(_pump(fc, events), name=f"onboard-progress:{mission_id}")
     began = clock.now()
     try:
-        await fc.mission.start(0)
+        async with worker.controller.navigation.modes.choosing():
+            await fc.mission.start(0)
         left_since: float | None = None
         while pending:
             with contextlib.suppress(TimeoutError):

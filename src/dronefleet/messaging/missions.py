@@ -25,10 +25,12 @@ class MissionAction(StrEnum):
     START = "start"
     STOP = "stop"
     REPORT = "report"  # re-send every progress report of ``mission_id`` (a planner catching up)
+    PAUSE = "pause"  # hold, and keep the steps left for a resume
+    RESUME = "resume"  # fly on with a mission paused by a takeover (drone/takeover.py)
 
 
 class MissionRequest(Message):
-    """Start a mission (replacing any running one) or stop the running one."""
+    """Start a mission (replacing any running one), stop or resume it, or ask for its reports."""
 
     request_id: RequestId | None = None
     mission_id: str = Field(default="", max_length=128)
@@ -84,6 +86,8 @@ class ProgressEvent(StrEnum):
     COMPLETED = "completed"  # every step done
     STOPPED = "stopped"  # stopped on request or replaced by a new mission
     FAILED = "failed"  # a step failed; the mission ends
+    PAUSED = "paused"  # someone else took the vehicle (another station, the RC, a failsafe)
+    RESUMED = "resumed"  # flying the paused mission again, on request
 
 
 class MissionProgress(Message):

@@ -105,6 +105,10 @@ class SimFlightController:
     async def hold(self) -> None:
         self.vehicle.hold()
 
+    def takeover_cause(self) -> str | None:
+        """Why the vehicle changed its mode itself, if it did (drone/takeover.py)."""
+        return "battery failsafe: landing" if self.vehicle.battery_failsafe else None
+
     async def reboot(self, *, force: bool = False) -> None:
         """Restart the autopilot; returns once it is back (about 2 vehicle seconds). Refused in
         the air unless ``force`` (then the motors stop and the vehicle falls)."""

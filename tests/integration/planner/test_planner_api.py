@@ -24,7 +24,18 @@ HOME = LLA(40.63, -8.659, 10.0)
 
 
 @pytest.fixture
-async def platform(embedded_broker, tmp_path):
+async def fleet(embedded_broker):
+    async with SimFleet(speedup=10) as fleet:
+        await fleet.add_drone(DroneConfig(drone_id="FULL"), embedded_broker, home=HOME)
+        low_home = ned_to_lla(NED(0, 20), HOME)
+        await fleet.add_drone(
+            DroneConfig(drone_id="LOW"), embedded_broker, home=low_home, battery_pct=24.0
+        )
+        yield fleet
+
+
+@pytest.fixture
+async def platform(embedded_broker, tmp_path, fleet):
     ground = GroundServices(
         embedded_broker,
         store_url=f"sqlite:///{tmp_path}/t.db",
@@ -32,12 +43,7 @@ async def platform(embedded_broker, tmp_path):
         http_port=0,
         planner_client_id="api-test-planner",
     )
-    async with ground, SimFleet(speedup=10) as fleet:
-        await fleet.add_drone(DroneConfig(drone_id="FULL"), embedded_broker, home=HOME)
-        low_home = ned_to_lla(NED(0, 20), HOME)
-        await fleet.add_drone(
-            DroneConfig(drone_id="LOW"), embedded_broker, home=low_home, battery_pct=24.0
-        )
+    async with ground:
         viewer = await TokenBook(ground.state).issue("viewer", Role.VIEWER)
         op = httpx.AsyncClient(
             base_url=ground.http_url, headers={"Authorization": f"Bearer {ground.operator_token}"}
@@ -198,3 +204,55 @@ async def test_aborting_a_mission_brings_its_drone_home(platform):
     assert drone["state"] in ("disarmed", "armed") and abs(offset.n) < 3 and abs(offset.e) < 3, (
         drone
     )
+
+
+async def test_a_drone_taken_over_pauses_its_mission_until_resumed_over_rest(platform, fleet):
+    op, view = platform
+    r = await op.post(
+        "/api/v1/missions", params={"start": "true"}, json={"drones": ["FULL"], "area": area()}
+    )
+    mission_id = r.json()["mission_id"]
+    got = await until_state(op, mission_id, {"running"})
+    for _ in range(300):  # a few waypoints flown
+        got = (await op.get(f"/api/v1/missions/{mission_id}")).json()
+        if got["steps_done"] >= 3:
+            break
+        await asyncio.sleep(0.1)
+    refused = await op.post(f"/api/v1/missions/{mission_id}/resume")
+    assert refused.status_code == 409 and "not paused" in refused.text
+    fleet.world.vehicles["FULL"].hold()  # an RC pilot's mode switch
+    paused = await until_state(op, mission_id, {"paused"}, timeout_s=20)
+    assert "FULL" in paused["error"] and "taken over" in paused["error"]
+    assert (await view.post(f"/api/v1/missions/{mission_id}/resume")).status_code == 403
+    resumed = await op.post(f"/api/v1/missions/{mission_id}/resume")
+    assert resumed.status_code == 200, resumed.text
+    done = await until_state(op, mission_id, {"completed", "failed", "stopped"}, timeout_s=120)
+    assert done["state"] == "completed", done
+    assert done["steps_done"] == done["steps"]
+
+
+async def test_an_operator_pauses_a_mission_its_drone_holds_and_resume_finishes_it(platform):
+    op, view = platform
+    r = await op.post(
+        "/api/v1/missions", params={"start": "true"}, json={"drones": ["FULL"], "area": area()}
+    )
+    mission_id = r.json()["mission_id"]
+    await until_state(op, mission_id, {"running"})
+    for _ in range(300):
+        got = (await op.get(f"/api/v1/missions/{mission_id}")).json()
+        if got["steps_done"] >= 3:
+            break
+        await asyncio.sleep(0.1)
+    assert (await view.post(f"/api/v1/missions/{mission_id}/pause")).status_code == 403
+    asked = await op.post(f"/api/v1/missions/{mission_id}/pause")
+    assert asked.status_code == 200, asked.text
+    paused = await until_state(op, mission_id, {"paused"}, timeout_s=20)
+    assert "paused by the operator" in paused["error"]
+    again = await op.post(f"/api/v1/missions/{mission_id}/pause")
+    assert again.status_code == 409 and "nothing to pause" in again.text
+    held = (await op.get(f"/api/v1/missions/{mission_id}")).json()["steps_done"]
+    await asyncio.sleep(2.0)  # 20 vehicle seconds: it holds
+    assert (await op.get(f"/api/v1/missions/{mission_id}")).json()["steps_done"] == held
+    assert (await op.post(f"/api/v1/missions/{mission_id}/resume")).status_code == 200
+    done = await until_state(op, mission_id, {"completed", "failed", "stopped"}, timeout_s=120)
+    assert done["state"] == "completed" and done["steps_done"] == done["steps"], done

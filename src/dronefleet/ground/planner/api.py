@@ -124,6 +124,28 @@ async def abort(request: Request, mission_id: str, who: Operator) -> MissionSumm
     return await _stop(request, who, mission_id, home=True)
 
 
+@router.post(
+    "/missions/{mission_id}/pause",
+    summary="Pause a mission: its drones hold and keep their steps for a resume",
+    responses=PLANNING,
+)
+async def pause(request: Request, mission_id: str, who: Operator) -> MissionSummary:
+    call = planner_of(request).pause_mission(mission_id)
+    record = await _guard(request, who, "mission.pause", {"mission_id": mission_id}, call)
+    return MissionSummary.model_validate(record.summary())
+
+
+@router.post(
+    "/missions/{mission_id}/resume",
+    summary="Resume a paused mission (paused on request, or a drone taken over by someone else)",
+    responses=PLANNING,
+)
+async def resume(request: Request, mission_id: str, who: Operator) -> MissionSummary:
+    call = planner_of(request).resume_mission(mission_id)
+    record = await _guard(request, who, "mission.resume", {"mission_id": mission_id}, call)
+    return MissionSummary.model_validate(record.summary())
+
+
 async def _stop(request: Request, who: Any, mission_id: str, *, home: bool) -> MissionSummary:
     call = planner_of(request).stop_mission(mission_id, home=home)
     command = "mission.abort" if home else "mission.stop"

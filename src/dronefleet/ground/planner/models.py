@@ -24,7 +24,7 @@ from dronefleet.messaging.status import Alarm
 class MissionState(StrEnum):
     PLANNED = "planned"
     RUNNING = "running"
-    PAUSED = "paused"
+    PAUSED = "paused"  # a drone was taken over (drone/takeover.py): see ``error``; resumable
     HANDED_OVER = "handed_over"  # running, after at least one replacement
     STALLED = "stalled"  # cannot progress (a drone lost and nobody to take over): see ``error``
     COMPLETED = "completed"
@@ -143,6 +143,7 @@ class Leg(BaseModel):
     ended_vehicle_s: float | None = None
     reports: list[StepReport] = Field(default_factory=list)
     error: str | None = None
+    paused: str | None = None  # who took the drone over, while its mission is paused
 
     def drone_steps(self, work: list[dict[str, Any]]) -> list[dict[str, Any]]:
         return [*self.prefix, *(work[i] for i in self.indices), *self.suffix]

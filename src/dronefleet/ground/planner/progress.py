@@ -1,13 +1,20 @@
 """What a drone's progress report changes in its mission record (the Mission Planner's bookkeeping).
 
-A report moves its leg along (accepted, completed, failed, stopped) and records a step as done,
-once: QoS 1 is at-least-once, and a report asked for again after a reconnect comes twice.
+A report moves its leg along (accepted, completed, failed, stopped), pauses or resumes its mission
+(a drone taken over by someone else, drone/takeover.py) and records a step as done, once: QoS 1
+is at-least-once, and a report asked for again after a reconnect comes twice.
 """
 
 from __future__ import annotations
 
 from dronefleet.clock import timestamp_s
-from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, StepReport
+from dronefleet.ground.planner.models import (
+    Leg,
+    LegState,
+    MissionRecord,
+    MissionState,
+    StepReport,
+)
 from dronefleet.messaging.missions import MissionProgress, ProgressEvent
 
 
@@ -33,6 +40,14 @@ def apply_progress(record: MissionRecord, leg: Leg, msg: MissionProgress) -> boo
     elif event is ProgressEvent.STOPPED:
         leg.state = LegState.STOPPED
         leg.ended_vehicle_s = msg.vehicle_time_s
+    elif event is ProgressEvent.PAUSED:
+        leg.paused = msg.error or "taken over"
+        record.state, record.error = MissionState.PAUSED, f"{leg.drone_id}: {leg.paused}"
+    elif event is ProgressEvent.RESUMED:
+        leg.paused = None
+        if not any(lg.paused for lg in record.active_legs()):
+            record.error = None
+            record.state = MissionState.HANDED_OVER if record.handovers else MissionState.RUNNING
     return False
 
 

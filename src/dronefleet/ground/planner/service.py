@@ -263,6 +263,36 @@ class MissionPlanner:
             await self._finish(record, MissionState.STOPPED, why)
             return record
 
+    async def pause_mission(self, mission_id: str) -> MissionRecord:
+        """Ask each drone of a running mission to hold and keep its steps left (each answers
+        ``paused``; the mission is then paused until resumed)."""
+        async with self._lock:
+            record = self.get(mission_id)
+            flying = [leg for leg in record.active_legs() if not leg.paused]
+            if record.terminal or record.state is MissionState.PLANNED or not flying:
+                raise Conflict(f"mission {mission_id} is {record.state.value}: nothing to pause")
+            await self._ask_legs(flying, MissionAction.PAUSE)
+            return record
+
+    async def resume_mission(self, mission_id: str) -> MissionRecord:
+        """Ask each paused drone of a mission (taken over, or paused on request) to fly on with
+        its leg (each answers ``resumed``, or ``paused`` again with why not: on the ground)."""
+        async with self._lock:
+            record = self.get(mission_id)
+            paused = [leg for leg in record.active_legs() if leg.paused]
+            if record.state is not MissionState.PAUSED or not paused:
+                raise Conflict(f"mission {mission_id} is {record.state.value}, not paused")
+            await self._ask_legs(paused, MissionAction.RESUME)
+            return record
+
+    async def _ask_legs(self, legs: list[Leg], action: MissionAction) -> None:
+        for leg in legs:
+            await self.client.publish(
+                topic(leg.drone_id, Channel.MISSION, Direction.IN),
+                MissionRequest(mission_id=leg.leg_id, action=action),
+                qos=QOS_COMMAND,
+            )
+
     # -- progress ----------------------------------------------------------------------------
     async def _on_progress(self, topic_name: str, payload: bytes) -> None:
         try:

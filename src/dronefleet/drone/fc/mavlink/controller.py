@@ -80,6 +80,10 @@ _IN_AIR_STATES = {
 }
 
 
+#: How recent (wall seconds) a failsafe STATUSTEXT must be to explain a mode change.
+FAILSAFE_TEXT_S = 3.0
+
+
 class MavlinkFlightController(VehicleView):
     """FlightController for the autopilot at ``url`` (``udpout:HOST:PORT``, ``tcp:…``, a serial
     device)."""
@@ -335,6 +339,11 @@ class MavlinkFlightController(VehicleView):
 
     async def return_to_launch(self) -> None:
         await self.set_mode(FlightMode.RTL)
+
+    def takeover_cause(self) -> str | None:
+        """The autopilot's own reason for a mode change it made (drone/takeover.py): a
+        failsafe it announced in the last :data:`FAILSAFE_TEXT_S` wall seconds."""
+        return self.link.failsafe_since(monotonic() - FAILSAFE_TEXT_S)
 
     async def reboot(self, *, force: bool = False) -> None:
         """Restart the autopilot; returns once it talks again. Refused in the air unless

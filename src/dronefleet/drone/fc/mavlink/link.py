@@ -243,6 +243,16 @@ class MavlinkLink:
                 return text
         return None
 
+    def failsafe_since(self, wall: float) -> str | None:
+        """The latest STATUSTEXT after ``wall`` announcing a failsafe or a fence breach: how
+        ArduPilot says it changed the mode itself ("Battery Failsafe", "GCS Failsafe")."""
+        for when, _severity, text in reversed(self.statustexts):
+            if when < wall:
+                break
+            if "failsafe" in text.lower() or "fence" in text.lower():
+                return text
+        return None
+
     # -- sending ------------------------------------------------------------------------------
     def send(self, message: Message) -> None:
         if self._conn is None:

@@ -86,7 +86,7 @@ class MissionClient:
 
         def on(msg: Message) -> None:
             kind = msg.get_type()
-            if getattr(msg, "mission_type", MISSION) != MISSION:
+            if getattr(msg, "mission_type", MISSION) != MISSION or not self._for_us(msg):
                 return
             if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
                 requests.put_nowait(msg.seq)
@@ -216,6 +216,18 @@ class MissionClient:
             raise FcError(self.link.describe())
         return self.link.target_system
 
+    def _for_us(self, msg: Message) -> bool:
+        """Whether a transfer message is addressed to this station (0: to everyone). The
+        autopilot talks to every station on the same link: another station's upload asks for its
+        items with MISSION_REQUESTs addressed to that station, which must not be answered here
+        with ours (issue 10)."""
+        system = getattr(msg, "target_system", 0)
+        component = getattr(msg, "target_component", 0)
+        return system in (0, self.link.source_system) and component in (
+            0,
+            self.link.source_component,
+        )
+
     def _send(self, msg: Message) -> None:
         try:
             self.link.send(msg)
@@ -225,7 +237,10 @@ class MissionClient:
     async def _ask(self, request: Message, answer: str, predicate=None) -> Message:
         for _ in range(self.retries + 1):
             self._send(request)
-            got = await self.link.wait_for(answer, predicate, self.timeout_s)
+            got = await self.link.wait_for(
+                answer, lambda m: self._for_us(m) and (predicate is None or predicate(m)),
+                self.timeout_s,
+            )  # fmt: skip
             if got is not None:
                 return got
         raise FcError(f"no {answer} from the autopilot ({self.link.describe()})")

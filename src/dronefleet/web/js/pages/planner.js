@@ -63,7 +63,10 @@ export async function mount(root, ctx) {
       btn("plan-preview", "Preview", preview, { disabled: !can }),
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
     estimate, field("Watch a mission", watch), status,
-    el("div", { class: "buttons" }, btn("plan-abort", "Abort: all home", abort, { class: "danger", disabled: !can })))));
+    el("div", { class: "buttons" },
+      btn("plan-pause", "Pause", () => pauseOrResume("pause"), { disabled: !can, title: "Its drones hold; Resume flies on" }),
+      btn("plan-resume", "Resume", () => pauseOrResume("resume"), { disabled: !can, title: "Fly on with a paused mission (paused here, or a drone taken over by someone else)" }),
+      btn("plan-abort", "Abort: all home", abort, { class: "danger", disabled: !can })))));
 
   // Read when opened; on an error the list stays as it was and the stream keeps the status.
   const fillWatch = () => addMissionOptions(watch).catch(() => {});
@@ -199,6 +202,17 @@ export async function mount(root, ctx) {
       toast(`mission ${s.missionId} aborted: its drones are going home`);
     } catch (err) {
       toast(`abort failed: ${err.message}`, "error");
+    }
+  }
+
+  /** Pause the watched mission (its drones hold) or fly on with it; each drone answers. */
+  async function pauseOrResume(action) {
+    if (!s.missionId) { toast("no mission is watched", "error"); return; }
+    try {
+      showMission(await api(`/missions/${s.missionId}/${action}`, { method: "POST" }));
+      toast(`mission ${s.missionId}: ${action} sent`);
+    } catch (err) {
+      toast(`${action} failed: ${err.message}`, "error");
     }
   }
 
