@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import time
 
 import pytest
 from playwright.sync_api import expect
@@ -178,4 +179,45 @@ def test_the_planner_shows_where_a_handover_happened(open_page, demo, screenshot
     assert taker and taker.group(1) != "QUAD_1", label.inner_text()
     assert "4/4 waypoints" in page.inner_text("#mission-status")
     screenshot(page, "8-planner-handover")
+    console.assert_clean()
+
+
+def test_the_planner_pauses_and_resumes_a_mission(open_page, demo, screenshot):
+    here = get(demo, "/drones/QUAD_2")["position"]
+    steps: list[dict] = []
+    for north, east in [(30, 0), (30, 30), (0, 30), (0, 0)]:
+        lat = here["lat"] + north / M_PER_DEG
+        lon = here["lon"] + east / (M_PER_DEG * math.cos(math.radians(here["lat"])))
+        steps += [
+            {"command": "navigate", "lat": lat, "lon": lon, "altitude_delta": 10},
+            {"command": "wait_for_flight"},
+        ]
+    page, console = open_page("planner")
+    spec = {"name": "pause", "drones": ["QUAD_2"], "steps": steps}
+    for _ in range(60):  # QUAD_2 may still be coming home from an earlier test
+        status, answer = post_for(demo, "/missions?start=true", spec)
+        if status != 409:
+            break
+        time.sleep(1.0)
+    assert status == 201, answer
+    mission = json.loads(answer)["mission_id"]
+    page.focus("#plan-watch")
+    page.wait_for_selector(f"#plan-watch option[value='{mission}']", state="attached")
+    page.select_option("#plan-watch", mission)
+    page.wait_for_selector(f"#mission-status[data-mission='{mission}'][data-state='running']")
+    for _ in range(300):  # in the air, its first waypoint flown
+        if get(demo, f"/missions/{mission}")["steps_done"] >= 2:
+            break
+        time.sleep(0.1)
+    page.click("#plan-pause")
+    page.wait_for_selector("#mission-status[data-state='paused']", timeout=30_000)
+    expect(page.locator("#mission-status")).to_contain_text("paused by the operator")
+    screenshot(page, "9-planner-paused")
+    page.click("#plan-resume")
+    done = f"#mission-status[data-mission='{mission}'][data-state='completed']"
+    try:
+        page.wait_for_selector(done, timeout=120_000)
+    except Exception:
+        raise AssertionError(get(demo, f"/missions/{mission}")) from None
+    assert "4/4 waypoints" in page.inner_text("#mission-status")
     console.assert_clean()

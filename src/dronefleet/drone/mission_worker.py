@@ -246,9 +246,9 @@ class MissionWorker:
                 error=f"mission {mission_id!r} is not paused on this drone",
             )
             return
-        state, left = self.controller.fc.state(), paused.left()
-        why = None if state.armed and state.in_air else "the vehicle is on the ground"
-        if why is None and (not left or left[0][1].command is not Command.NAVIGATE):
+        state = self.controller.fc.state()
+        left, why, to_goal = paused.resume_plan(grounded=not (state.armed and state.in_air))
+        if why is None and to_goal:
             try:
                 await self.controller.navigation.resume()
             except (CommandError, FcError) as exc:

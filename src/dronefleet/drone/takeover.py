@@ -111,3 +111,16 @@ class Paused:
         if before and before[-1][1].command is Command.NAVIGATE:
             return [before[-1], *left]
         return left
+
+    def resume_plan(self, *, grounded: bool) -> tuple[list[tuple[int, Any]], str | None, bool]:
+        """What a resume flies: the steps, why it cannot (None: it can), and whether the
+        vehicle is first taken back to the goal it was flying to. On the ground only a mission
+        that had not taken off yet goes on (armed again if it was disarmed meanwhile)."""
+        left = self.left()
+        first = left[0][1].command if left else None
+        starts = first in (Command.ARM, Command.TAKEOFF)
+        if grounded and not starts:
+            return left, "the vehicle is on the ground", False
+        if grounded and first is Command.TAKEOFF:
+            left = [s for s in self.steps if s[1].command is Command.ARM][-1:] + left
+        return left, None, not starts and first is not Command.NAVIGATE

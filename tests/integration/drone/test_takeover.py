@@ -98,3 +98,21 @@ async def test_the_autopilots_battery_failsafe_pauses_the_mission_and_says_so(em
         assert "battery failsafe" in paused["result"]["reason"]
         assert paused["result"]["mode"] == "LAND"
         assert not events(op, "t3", "failed")
+
+
+async def test_a_pause_asked_on_the_ground_holds_and_a_resume_takes_off(embedded_broker):
+    steps = line(2)
+    async with SimFleet(speedup=20) as fleet, Operator(embedded_broker) as op:
+        await fleet.add_drone(DroneConfig(drone_id="QUAD_P"), embedded_broker, home=HOME)
+        vehicle = fleet.world.vehicles["QUAD_P"]
+        await op.send_mission("QUAD_P", mission_id="t4", steps=steps)
+        await op.wait_for(lambda: events(op, "t4", "accepted"), timeout_s=20)
+        await op.send_mission("QUAD_P", mission_id="t4", action="pause")
+        (paused,) = await op.wait_for(lambda: events(op, "t4", "paused"), timeout_s=20)
+        assert paused["error"] == "paused by the operator: holding", paused
+        await fleet.clock.sleep(10.0)
+        assert not vehicle.in_air and not events(op, "t4", "completed")
+        await op.send_mission("QUAD_P", mission_id="t4", action="resume")
+        await op.wait_for(lambda: events(op, "t4", "completed"), timeout_s=120)
+        done = sorted({p["step_index"] for p in events(op, "t4", "step")})
+        assert done == list(range(len(steps))) and not events(op, "t4", "failed")

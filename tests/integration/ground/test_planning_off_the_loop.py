@@ -4,7 +4,8 @@ Before, planning ran on the ground's event loop: a 2000-vertex outline froze the
 every drone was marked lost and the preview then answered 409 "drone QUAD_1 is lost". Here a
 preview that takes seconds to plan (a 1,800-vertex comb at 4 m: about 5 s of coverage planning
 on this machine) runs while a second client asks for the fleet every 100 ms: every answer comes
-within 200 ms and no drone is marked lost. With a budget of 1 s the same preview is refused
+long before the plan is done (under a third of its time and under 1 s; tens of milliseconds
+typically) and no drone is marked lost. With a budget of 1 s the same preview is refused
 with a 422 that says what to do, and the ground goes on serving.
 """
 
@@ -129,8 +130,12 @@ def test_a_long_plan_leaves_the_ground_answering_and_no_drone_lost(tmp_path, fle
     assert "batteries cannot cover the route" in preview.json()["detail"]
     assert planned_s > 1.0, f"the plan took only {planned_s:.2f} s: not a long plan"
     assert len(answers) >= planned_s / 0.2
+    # A loop that planned would answer only once the plan is done (seconds); one that does not
+    # answers in tens of milliseconds, 0.23 s at worst seen on a loaded 2-core machine.
     slowest = max(seconds for seconds, _ in answers)
-    assert slowest < 0.2, f"the fleet answered in {slowest:.3f} s while planning"
+    assert slowest < min(1.0, planned_s / 3), (
+        f"the fleet answered in {slowest:.3f} s while planning"
+    )
     assert all(status == "online" for _, fleet in answers for status in fleet.values())
 
 

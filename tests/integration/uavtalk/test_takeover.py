@@ -1,4 +1,5 @@
-"""UAVTalk's flight mode changed by someone else pauses the mission; a resume finishes it (issue 10).
+"""UAVTalk's flight mode changed by someone else pauses the mission; a resume finishes it
+(issue 10).
 
 A ``dronefleet drone --fc uavtalk`` process flies a mission on our simulated dRonin; the vehicle's
 own hold (an RC pilot's flight-mode switch, seen by the drone in FlightStatus.FlightMode) takes it.
