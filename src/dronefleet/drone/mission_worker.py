@@ -77,6 +77,7 @@ class MissionWorker:
         self._sensor_names: list[str] | None = None
         # Every report of the last missions, re-sent on request to a planner that missed some.
         self.history: OrderedDict[str, list[MissionProgress]] = OrderedDict()
+        self._numbered: dict[str, int] = {}  # mission id -> reports numbered (MissionProgress.seq)
         self._replayed: dict[str, float] = {}  # mission id -> vehicle time of its last replay
         self._steps: list[tuple[int, Any]] = []  # the mission's steps, with their indices
         self._done: set[int] = set()  # indices of its steps reported done
@@ -432,11 +433,15 @@ class MissionWorker:
             self._done.add(progress.step_index if progress.step_index is not None else -1)
         if progress.mission_id and progress.event is not ProgressEvent.REJECTED:
             kept = self.history.setdefault(progress.mission_id, [])
+            seq = self._numbered[progress.mission_id] = (
+                self._numbered.get(progress.mission_id, 0) + 1
+            )
+            progress.seq = seq  # the ground asks again for a gap in these (planner/progress.py)
             kept.append(progress)
             del kept[:-REPORTS_PER_MISSION]
             self.history.move_to_end(progress.mission_id)
             while len(self.history) > HISTORY_MISSIONS:
-                self.history.popitem(last=False)
+                self._numbered.pop(self.history.popitem(last=False)[0], None)
         topic_name = self.controller.topic(Channel.MISSION)
         if progress.event is ProgressEvent.REJECTED:
             # An answer to a request that never became a mission (junk, or a report of a leg it

@@ -97,6 +97,11 @@ class MissionProgress(Message):
     mission_id: str
     request_id: str | None = None
     event: ProgressEvent
+    seq: int | None = Field(
+        default=None,
+        ge=1,
+        description="the report's number in its mission, from 1: a gap shows reports missed",
+    )
     step_index: int | None = None
     step_count: int | None = None
     command: str | None = None

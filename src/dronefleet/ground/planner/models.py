@@ -144,6 +144,7 @@ class Leg(BaseModel):
     reports: list[StepReport] = Field(default_factory=list)
     error: str | None = None
     paused: str | None = None  # who took the drone over, while its mission is paused
+    seqs: list[int] = Field(default_factory=list)  # report numbers received, sorted
 
     def drone_steps(self, work: list[dict[str, Any]]) -> list[dict[str, Any]]:
         return [*self.prefix, *(work[i] for i in self.indices), *self.suffix]

@@ -7,6 +7,8 @@ is at-least-once, and a report asked for again after a reconnect comes twice.
 
 from __future__ import annotations
 
+import bisect
+
 from dronefleet.clock import timestamp_s
 from dronefleet.ground.planner.models import (
     Leg,
@@ -49,6 +51,14 @@ def apply_progress(record: MissionRecord, leg: Leg, msg: MissionProgress) -> boo
             record.error = None
             record.state = MissionState.HANDED_OVER if record.handovers else MissionState.RUNNING
     return False
+
+
+def note_seq(leg: Leg, seq: int | None) -> bool:
+    """Record report number ``seq`` of ``leg``; True when some number below the highest is
+    missing (reports lost on the way: the planner asks the drone for them again)."""
+    if seq is not None and seq not in leg.seqs:
+        bisect.insort(leg.seqs, seq)
+    return bool(leg.seqs) and leg.seqs[-1] > len(leg.seqs)
 
 
 def _step_done(record: MissionRecord, leg: Leg, msg: MissionProgress, drone_step: int) -> bool:

@@ -3,6 +3,8 @@
 - After a reconnect to the broker (not only at start), the planner asks every drone of every
   unfinished mission to re-send its reports for each of its legs: whatever was published while
   the link was down arrives, and duplicates are dropped by step.
+- Reports are numbered per leg (``MissionProgress.seq``); a gap in the numbers received means
+  some were lost on the way, and the drone is asked for them again (:func:`fill_gap`).
 - A drone the Drone Identifier declares lost has its work taken over (ground/planner/lost.py).
 - A drone back online is sent its active legs again (a restarted drone forgot them) and asked
   for its reports, so what it did while unheard is recorded.
@@ -13,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import secrets
+import time
 from typing import TYPE_CHECKING
 
 from dronefleet.ground.planner import lost, replacement
@@ -38,6 +41,8 @@ log = logging.getLogger(__name__)
 REPORT_PREFIX = "report-"
 #: How often the planner looks whether its broker link was made again (event-loop seconds).
 RECONNECT_POLL_S = 1.0
+#: Wall seconds between two requests for a leg's missing reports.
+GAP_ASK_S = 2.0
 
 
 async def ask_reports(planner: MissionPlanner, drone_id: str | None = None) -> None:
@@ -46,16 +51,36 @@ async def ask_reports(planner: MissionPlanner, drone_id: str | None = None) -> N
         if record.terminal:
             continue
         for leg in record.legs:
-            if drone_id is not None and leg.drone_id != drone_id:
-                continue
-            request = MissionRequest(
-                request_id=f"{REPORT_PREFIX}{secrets.token_hex(8)}",
-                mission_id=leg.leg_id,
-                action=MissionAction.REPORT,
-            )
-            await planner.client.publish(
-                topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
-            )
+            if drone_id is None or leg.drone_id == drone_id:
+                await ask_leg_reports(planner, leg)
+
+
+async def ask_leg_reports(planner: MissionPlanner, leg: Leg) -> None:
+    """Ask ``leg``'s drone to re-send every report of it (duplicates are dropped by number)."""
+    request = MissionRequest(
+        request_id=f"{REPORT_PREFIX}{secrets.token_hex(8)}",
+        mission_id=leg.leg_id,
+        action=MissionAction.REPORT,
+    )
+    await planner.client.publish(
+        topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
+    )
+
+
+async def fill_gap(planner: MissionPlanner, leg: Leg) -> None:
+    """Reports of ``leg`` are missing (a gap in their numbers): ask for them, at most once per
+    :data:`GAP_ASK_S` (the drone sends them all again; one request covers every gap)."""
+    now = time.monotonic()
+    if now - planner.gap_asked.get(leg.leg_id, -GAP_ASK_S) < GAP_ASK_S:
+        return
+    planner.gap_asked[leg.leg_id] = now
+    log.info("leg %s: reports %s missing; asking again", leg.leg_id, missing(leg.seqs))
+    await ask_leg_reports(planner, leg)
+
+
+def missing(seqs: list[int]) -> list[int]:
+    have = set(seqs)
+    return [n for n in range(1, (seqs[-1] if seqs else 0) + 1) if n not in have]
 
 
 def answers_a_report_request(progress: MissionProgress) -> bool:

@@ -28,7 +28,7 @@ from dronefleet.ground.planner.models import (
     MissionState,
 )
 from dronefleet.ground.planner.options import LegRole
-from dronefleet.ground.planner.progress import apply_progress
+from dronefleet.ground.planner.progress import apply_progress, note_seq
 from dronefleet.ground.planner.store import MissionStore
 from dronefleet.ground.planner.units import remaining
 from dronefleet.ground.planner.worker import PlanningWorker
@@ -100,6 +100,7 @@ class MissionPlanner:
         self._flusher: asyncio.Task[None] | None = None
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self._checking: set[str] = set()  # legs whose early-replacement check is running
+        self.gap_asked: dict[str, float] = {}  # leg id -> when its missing reports were asked
         self.lost: set[str] = set()  # drones the Drone Identifier last declared lost
 
     @property
@@ -316,6 +317,8 @@ class MissionPlanner:
                 return
             if apply_progress(record, leg, msg):  # a step reported for the first time
                 self._path_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
+            if note_seq(leg, msg.seq):
+                self.spawn(reconcile.fill_gap(self, leg), f"gap:{leg.leg_id}")
             await self.save(record)
         data = msg.model_dump(mode="json", exclude_none=True)
         self.emit("progress", **{**data, "mission_id": mission_id, "leg_id": leg.leg_id})
