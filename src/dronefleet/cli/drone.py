@@ -103,6 +103,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="vehicle seconds without the broker before --link-loss acts (FS_GCS_TIMEOUT)",
     )
     p.add_argument("--log-dir", type=Path, help="rotating JSONL logs go here")
+    p.add_argument(
+        "--state-dir",
+        type=Path,
+        help="mission reports are kept here (reports.db), so a restart loses none",
+    )
     p.add_argument("--gear-dir", type=Path, help="folder with specs.json and sensors.json")
     p.add_argument("--heartbeat-s", type=float, default=5.0, help="heartbeat interval (vehicle s)")
     p.add_argument("--battery-critical", type=float, default=20.0, help="CRITICAL alarm below %%")
@@ -128,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
         battery_critical_pct=args.battery_critical,
         log_dir=args.log_dir,
         gear_dir=args.gear_dir,
+        state_dir=args.state_dir,
         onboard_missions=args.onboard_missions,
         link_loss_action=args.link_loss,
         link_loss_timeout_s=args.link_loss_timeout,

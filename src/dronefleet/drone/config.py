@@ -32,4 +32,5 @@ class DroneConfig:
         default_factory=lambda: {"co2_ppm": (None, 1000.0)}
     )
     log_dir: Path | None = None
+    state_dir: Path | None = None  # mission reports kept on disk (drone/report_store.py)
     gear_dir: Path | None = None

@@ -21,6 +21,7 @@ from dronefleet.drone import onboard
 from dronefleet.drone.controller import CommandError, DroneController
 from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.outbox import Outbox
+from dronefleet.drone.report_store import ReportStore, interrupted
 from dronefleet.drone.state import position_of
 from dronefleet.drone.takeover import OPERATOR, POLL_S, Paused, Takeover
 from dronefleet.errors import Failed
@@ -76,8 +77,13 @@ class MissionWorker:
         self._lock = asyncio.Lock()
         self._sensor_names: list[str] | None = None
         # Every report of the last missions, re-sent on request to a planner that missed some.
-        self.history: OrderedDict[str, list[MissionProgress]] = OrderedDict()
-        self._numbered: dict[str, int] = {}  # mission id -> reports numbered (MissionProgress.seq)
+        # ... also on disk with a state folder, and read back after a restart.
+        state_dir = self.config.state_dir
+        self.store = ReportStore(state_dir / "reports.db" if state_dir is not None else None)
+        self.history: OrderedDict[str, list[MissionProgress]] = self.store.load(HISTORY_MISSIONS)
+        # mission id -> reports numbered (MissionProgress.seq)
+        self._numbered = {m: max(p.seq or 0 for p in kept) for m, kept in self.history.items()}
+        self.interrupted = interrupted(self.history)  # running when the software stopped
         self._replayed: dict[str, float] = {}  # mission id -> vehicle time of its last replay
         self._steps: list[tuple[int, Any]] = []  # the mission's steps, with their indices
         self._done: set[int] = set()  # indices of its steps reported done
@@ -93,6 +99,7 @@ class MissionWorker:
         await self._cancel_current()
         await self.outbox.drain(timeout_s=2.0)  # the last reports, if the broker is there
         await self.outbox.close()
+        self.store.close()
 
     @property
     def running(self) -> bool:
@@ -437,11 +444,14 @@ class MissionWorker:
                 self._numbered.get(progress.mission_id, 0) + 1
             )
             progress.seq = seq  # the ground asks again for a gap in these (planner/progress.py)
+            self.store.add(progress)  # on disk before it is sent
             kept.append(progress)
             del kept[:-REPORTS_PER_MISSION]
             self.history.move_to_end(progress.mission_id)
-            while len(self.history) > HISTORY_MISSIONS:
-                self._numbered.pop(self.history.popitem(last=False)[0], None)
+            if len(self.history) > HISTORY_MISSIONS:
+                while len(self.history) > HISTORY_MISSIONS:
+                    self._numbered.pop(self.history.popitem(last=False)[0], None)
+                self.store.forget_all_but(list(self.history))
         topic_name = self.controller.topic(Channel.MISSION)
         if progress.event is ProgressEvent.REJECTED:
             # An answer to a request that never became a mission (junk, or a report of a leg it
@@ -473,6 +483,20 @@ class MissionWorker:
             return
         for progress in kept:
             self.outbox.post(self.controller.topic(Channel.MISSION), progress)
+        if mission_id in self.interrupted:  # after its reports, in order: the rest is not flown
+            fc = self.controller.fc
+            said = MissionProgress(
+                drone_id=self.controller.drone_id,
+                mission_id=mission_id,
+                request_id=request_id,
+                event=ProgressEvent.REJECTED,
+                ok=False,
+                error="interrupted: the drone software restarted while flying it; its reports "
+                "were sent again, the rest is not flown",
+                position=position_of(fc.position(), fc.home()),
+                vehicle_time_s=round(self.clock.now(), 3),
+            )
+            self.outbox.post(self.controller.topic(Channel.MISSION), said)
 
 
 def _sensor_names(sensors: dict[str, Any]) -> list[str]:

@@ -8,6 +8,8 @@
 - A drone the Drone Identifier declares lost has its work taken over (ground/planner/lost.py).
 - A drone back online is sent its active legs again (a restarted drone forgot them) and asked
   for its reports, so what it did while unheard is recorded.
+- A drone whose heartbeats name no mission while a leg of ours runs on it (restarted faster than
+  it could be missed) is asked for its reports too (:func:`on_heartbeat`).
 """
 
 from __future__ import annotations
@@ -23,13 +25,14 @@ from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, Missi
 from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.ground_events import FleetChange, FleetEvent
-from dronefleet.messaging.inbound import parse_message
+from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.missions import (
     MissionAction,
     MissionProgress,
     MissionRequest,
     ProgressEvent,
 )
+from dronefleet.messaging.status import Heartbeat
 from dronefleet.messaging.topics import Channel, Direction, topic
 
 if TYPE_CHECKING:
@@ -43,6 +46,8 @@ REPORT_PREFIX = "report-"
 RECONNECT_POLL_S = 1.0
 #: Wall seconds between two requests for a leg's missing reports.
 GAP_ASK_S = 2.0
+#: Heartbeats in a row naming no mission, or another, before a running leg is checked.
+MISMATCHED_BEATS = 2
 
 
 async def ask_reports(planner: MissionPlanner, drone_id: str | None = None) -> None:
@@ -106,6 +111,35 @@ async def forgotten(planner: MissionPlanner, record: MissionRecord, leg: Leg) ->
         return
     why = f"drone {leg.drone_id} no longer knows leg {leg.leg_id} (restarted?)"
     await lost.take_over(planner, record, leg, why)
+
+
+async def on_heartbeat(planner: MissionPlanner, topic_name: str, payload: bytes) -> None:
+    """A drone that says it flies no mission (or another) while a leg of ours is running on it
+    was restarted, or dropped the leg: after :data:`MISMATCHED_BEATS` such heartbeats its
+    reports are asked for. It sends what it kept and says the leg was interrupted, or that it
+    keeps nothing: either way the rest is taken over (:func:`forgotten`)."""
+    try:
+        beat = parse_message(Heartbeat, payload)
+        speaks_for_itself(topic_name, beat.drone_id)
+    except MessageError:
+        return  # counted and dropped by the Drone Identifier
+    running = [
+        leg
+        for record in list(planner.missions.values())
+        if not record.terminal
+        for leg in record.active_legs()
+        if leg.drone_id == beat.drone_id and leg.state is LegState.RUNNING
+    ]
+    if all(leg.leg_id == beat.mission_id for leg in running):
+        planner.mismatched.pop(beat.drone_id, None)
+        return
+    count = planner.mismatched[beat.drone_id] = planner.mismatched.get(beat.drone_id, 0) + 1
+    if count < MISMATCHED_BEATS:
+        return
+    for leg in running:
+        if leg.leg_id != beat.mission_id:
+            log.info("drone %s flies %s, not leg %s", beat.drone_id, beat.mission_id, leg.leg_id)
+            await fill_gap(planner, leg)
 
 
 async def resume(planner: MissionPlanner) -> None:

@@ -101,6 +101,7 @@ class MissionPlanner:
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self._checking: set[str] = set()  # legs whose early-replacement check is running
         self.gap_asked: dict[str, float] = {}  # leg id -> when its missing reports were asked
+        self.mismatched: dict[str, int] = {}  # drone id -> heartbeats naming another mission
         self.lost: set[str] = set()  # drones the Drone Identifier last declared lost
 
     @property
@@ -123,6 +124,11 @@ class MissionPlanner:
         await self.client.subscribe(any_drone(Channel.ALARMS), self._on_alarm, qos=QOS_COMMAND)
         await self.client.subscribe(
             any_drone(Channel.TELEMETRY), self._on_telemetry, qos=QOS_STREAM
+        )
+        await self.client.subscribe(
+            any_drone(Channel.HEARTBEATS),
+            lambda t, p: reconcile.on_heartbeat(self, t, p),
+            qos=QOS_STREAM,
         )
         await self.client.subscribe(
             IDENTIFIER_EVENTS,
