@@ -74,6 +74,10 @@ def run(args: argparse.Namespace) -> int:
         return 1
 
 
+#: Where the demo's CO2 plume is, from home (5,000 ppm at its centre, 15 m wide, at sea level).
+DEMO_PLUME = NED(-60.0, -60.0)
+
+
 def demo_mission(home) -> list[dict[str, Any]]:
     """Arm, take off, fly a 30 m square photographing each corner, hover, land."""
     from dronefleet.geo.ned import ned_to_lla
@@ -143,6 +147,7 @@ def _external_drones(broker: Any, names: list[str], state_dir: Path) -> list[str
 async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.cli.drone import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
+    from dronefleet.geo.ned import ned_to_lla
     from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.broker_users import BrokerRole
@@ -171,7 +176,10 @@ async def _demo(args: argparse.Namespace) -> int:
             assert ground.state is not None  # started above
             tokens = await _tokens(TokenBook(ground.state), state_dir, args.token)
             joining = _external_drones(broker, args.external_drone, state_dir)
-            async with SimFleet() as fleet:
+            # A CO2 plume south-west of home, away from the demo's square, for the sensors to
+            # find: a survey over it reading sensors maps it (planner page, issue 14).
+            spot = ned_to_lla(DEMO_PLUME, home)
+            async with SimFleet(plumes=[(spot.lat, spot.lon, 5000.0, 15.0)]) as fleet:
                 ids = [f"QUAD_{i + 1}" for i in range(args.drones)]
                 for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):
                     config = DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs")

@@ -221,3 +221,41 @@ def test_the_planner_pauses_and_resumes_a_mission(open_page, demo, screenshot):
         raise AssertionError(get(demo, f"/missions/{mission}")) from None
     assert "4/4 waypoints" in page.inner_text("#mission-status")
     console.assert_clean()
+
+
+def test_the_planner_maps_what_the_drones_measured(open_page, demo, screenshot):
+    from dronefleet.cli.drone import DEFAULT_HOME
+    from dronefleet.demo import DEMO_PLUME
+
+    lat, lon = (float(v) for v in DEFAULT_HOME.split(",")[:2])  # the centre of the demo's homes
+    north, east = DEMO_PLUME.n, DEMO_PLUME.e
+    m_lon = M_PER_DEG * math.cos(math.radians(lat))
+    corners = [(north + dn, east + de) for dn, de in ((-30, -30), (-30, 30), (30, 30), (30, -30))]
+    polygon = [[lat + n / M_PER_DEG, lon + e / m_lon] for n, e in corners]
+    area = {"polygon": polygon, "spacing_m": 15, "altitude_m": 15, "action": "read_sensors",
+            "hold_s": 1}  # fmt: skip
+    spec = {"name": "gas", "drones": ["QUAD_3"], "area": area,
+            "options": {"collaboration": False, "early_replacement": False}}  # fmt: skip
+    page, console = open_page("planner")
+    for _ in range(60):  # QUAD_3 may still be coming home from an earlier test
+        status, answer = post_for(demo, "/missions?start=true", spec)
+        if status != 409:
+            break
+        time.sleep(1.0)
+    assert status == 201, answer
+    mission = json.loads(answer)["mission_id"]
+    page.focus("#plan-watch")
+    page.wait_for_selector(f"#plan-watch option[value='{mission}']", state="attached")
+    page.select_option("#plan-watch", mission)
+    done = f"#mission-status[data-mission='{mission}'][data-state='completed']"
+    page.wait_for_selector(done, timeout=180_000)
+    reads = sum(
+        1 for s in get(demo, f"/missions/{mission}")["work"] if s["command"] == "read_sensors"
+    )
+    markers = page.locator("#planner-map .reading-marker")
+    expect(markers).to_have_count(reads)
+    key = page.inner_text("#readings-key")
+    low, high = (float(v) for v in re.findall(r"(?:green|red) (\d+)", key))
+    assert high > 1000 > low, key  # the plume stands out of the 400 ppm background
+    screenshot(page, "10-planner-readings")
+    console.assert_clean()

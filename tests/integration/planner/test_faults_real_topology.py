@@ -209,7 +209,9 @@ def test_a_fault_comes_and_goes_and_the_mission_completes_with_every_report(
     with Rig(tmp_path, [drone_id], speedup=5 if link else 10, link=link) as rig:
         mission_id = rig.start_mission(mission([drone_id]))
         before = rig.until(mission_id, timeout_s=90, done=2 + 2 * 3)
-        assert before["state"] == "running", before
+        # Over the lossy link a drone goes unheard for seconds at times: its mission is then
+        # stalled (not failed) until it is heard again.
+        assert before["state"] in (("running", "stalled") if link else ("running",)), before
         if fault == "ground-broker":
             rig.ground_broker.stop(kill=True)
             time.sleep(OUTAGE_WALL_S)

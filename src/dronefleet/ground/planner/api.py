@@ -1,23 +1,22 @@
 """The Mission Planner's REST API: ``/api/v1/missions`` and the call-a-drone endpoint.
 
-Create (optionally start), preview (waypoints, time and battery per drone), start, stop, abort
-(every drone home), list,
-get, and the mission log (JSON, downloadable). Refusals are 4xx with the reason; nothing changes.
-"""
+Create (optionally start), preview (waypoints, time and battery per drone), start, stop, pause,
+resume, abort (every drone home), list, get, the mission log (JSON, downloadable) and what the
+drones measured (GeoJSON or CSV). Refusals are 4xx with the reason; nothing changes."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter, Query, Request
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.errors import Unavailable
 from dronefleet.ground.manager.context import Operator, Viewer, audited
 from dronefleet.ground.manager.errors import answers
 from dronefleet.ground.manager.schemas import MissionLog
-from dronefleet.ground.planner import launch
+from dronefleet.ground.planner import launch, measurements
 from dronefleet.ground.planner.launch import MissionSpec
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.schemas import MissionDetail, MissionSummary, Preview
@@ -151,6 +150,34 @@ async def _stop(request: Request, who: Any, mission_id: str, *, home: bool) -> M
     command = "mission.abort" if home else "mission.stop"
     record = await _guard(request, who, command, {"mission_id": mission_id}, call)
     return MissionSummary.model_validate(record.summary())
+
+
+@router.get(
+    "/missions/{mission_id}/readings",
+    summary="What the drones measured: one point per sensor reading, GeoJSON or CSV",
+    responses={
+        200: {
+            "content": {"application/geo+json": {}, "text/csv": {}},
+            "description": "a FeatureCollection of Points, or CSV with a header row",
+        },
+        **answers(404),
+    },
+)
+async def mission_readings(
+    request: Request,
+    mission_id: str,
+    who: Viewer,
+    fmt: Literal["geojson", "csv"] = Query("geojson", alias="format"),
+) -> Response:
+    rows = measurements.readings(planner_of(request).get(mission_id))
+    name = f"mission-{mission_id}-readings"
+    if fmt == "csv":
+        headers = {"Content-Disposition": f'attachment; filename="{name}.csv"'}
+        return Response(measurements.csv_text(rows), media_type="text/csv", headers=headers)
+    headers = {"Content-Disposition": f'attachment; filename="{name}.geojson"'}
+    return JSONResponse(
+        measurements.geojson(rows), media_type="application/geo+json", headers=headers
+    )
 
 
 @router.get(

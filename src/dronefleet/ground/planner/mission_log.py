@@ -43,6 +43,7 @@ def build_log(record: MissionRecord) -> dict[str, Any]:
                     "started_s": report.started_s,
                     "duration_s": report.duration_s,
                     "position": report.position,
+                    **({"measured": report.measured} if report.measured else {}),
                 }
             )
     for drone_id, points in record.paths.items():

@@ -126,6 +126,7 @@ class StepReport(BaseModel):
     duration_s: float | None = None
     vehicle_time_s: float | None = None
     received_at: float = Field(default_factory=time.time)
+    measured: dict[str, Any] | None = None  # readings or a picture (ground/planner/measurements)
 
 
 class Leg(BaseModel):

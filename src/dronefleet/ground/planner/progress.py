@@ -10,6 +10,7 @@ from __future__ import annotations
 import bisect
 
 from dronefleet.clock import timestamp_s
+from dronefleet.ground.planner.measurements import measured
 from dronefleet.ground.planner.models import (
     Leg,
     LegState,
@@ -75,6 +76,7 @@ def _step_done(record: MissionRecord, leg: Leg, msg: MissionProgress, drone_step
             started_s=msg.step_started_s,
             duration_s=msg.step_duration_s,
             vehicle_time_s=msg.vehicle_time_s,
+            measured=measured(msg.result),
         )
     )
     if index is not None:

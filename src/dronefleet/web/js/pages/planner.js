@@ -33,6 +33,7 @@ export async function mount(root, ctx) {
   const status = el("div", { id: "mission-status", class: "status", role: "status", "aria-live": "polite" }, "No mission sent yet.");
   const watch = el("select", { id: "plan-watch" }, el("option", { value: "" }, "— the one sent from here —"));
   const estimate = el("div", { id: "plan-estimate" });
+  const readingsKey = el("p", { id: "readings-key", class: "hint", hidden: true });
   const editor = stepEditor(() => {});
   const mapBox = el("div", { class: "map", id: "planner-map" });
   const can = ctx.me.can_command;
@@ -62,7 +63,7 @@ export async function mount(root, ctx) {
     el("div", { class: "buttons" },
       btn("plan-preview", "Preview", preview, { disabled: !can }),
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
-    estimate, field("Watch a mission", watch), status,
+    estimate, field("Watch a mission", watch), status, readingsKey,
     el("div", { class: "buttons" },
       btn("plan-pause", "Pause", () => pauseOrResume("pause"), { disabled: !can, title: "Its drones hold; Resume flies on" }),
       btn("plan-resume", "Resume", () => pauseOrResume("resume"), { disabled: !can, title: "Fly on with a paused mission (paused here, or a drone taken over by someone else)" }),
@@ -87,6 +88,7 @@ export async function mount(root, ctx) {
   const markers = new Map();
   const trails = new Map();
   const handoverLayer = L.layerGroup().addTo(map);
+  const readingLayer = L.layerGroup().addTo(map);
 
   function setMode(mode) {
     s.mode = mode;
@@ -238,6 +240,31 @@ export async function mount(root, ctx) {
     }
   }
 
+  /** What the drones measured: one dot per reading, green (lowest) to red (highest). */
+  function showReadings(geo) {
+    readingLayer.clearLayers();
+    const features = (geo && geo.features) || [];
+    const values = features.map((f) => f.properties.value);
+    readingsKey.hidden = !values.length;
+    if (!values.length) return;
+    const lo = Math.min(...values), hi = Math.max(...values);
+    const unit = features[0].properties.unit || "";
+    readingsKey.textContent = `Readings (${features.length}): green ${lo.toFixed(0)} → red ${hi.toFixed(0)} ${unit}`;
+    for (const f of features) {
+      const [lon, lat] = f.geometry.coordinates;
+      const p = f.properties;
+      const t = hi > lo ? (p.value - lo) / (hi - lo) : 0;
+      // Text nodes only: the sensor's and drone's names come from the drones (issue 12).
+      const label = el("span", {}, `${p.sensor} ${p.value.toFixed(1)} ${p.unit || ""} (${p.drone_id})`);
+      L.circleMarker([lat, lon], { radius: 6, weight: 1, color: "#1e293b", fillColor: `hsl(${Math.round(120 - 120 * t)}, 85%, 42%)`, fillOpacity: 0.9, className: "reading-marker" })
+        .bindTooltip(label).addTo(readingLayer);
+    }
+    if (s.readingsShown !== s.missionId) {  // once per mission: the operator's view stays put
+      s.readingsShown = s.missionId;
+      map.fitBounds(L.featureGroup(readingLayer.getLayers()).getBounds(), { padding: [40, 40], maxZoom: 19 });
+    }
+  }
+
   function fillDrones() {
     const have = new Set([...drones.querySelectorAll("input")].map((i) => i.value));
     for (const d of ctx.fleet.list()) {
@@ -273,6 +300,7 @@ export async function mount(root, ctx) {
   async function poll() {
     if (!s.missionId) return;
     try { showMission(await api(`/missions/${s.missionId}`)); } catch { /* the stream will tell */ }
+    try { showReadings(await api(`/missions/${s.missionId}/readings`)); } catch { showReadings(null); }
   }
   const poller = setInterval(poll, 3000);
   ctx.fleet.addEventListener("change", render);
