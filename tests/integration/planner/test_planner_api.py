@@ -45,11 +45,14 @@ async def platform(embedded_broker, tmp_path, fleet):
     )
     async with ground:
         viewer = await TokenBook(ground.state).issue("viewer", Role.VIEWER)
+        # 30 s: the first plan starts the planning worker's process, slow on a loaded machine.
         op = httpx.AsyncClient(
-            base_url=ground.http_url, headers={"Authorization": f"Bearer {ground.operator_token}"}
+            base_url=ground.http_url,
+            headers={"Authorization": f"Bearer {ground.operator_token}"},
+            timeout=30,
         )
         view = httpx.AsyncClient(
-            base_url=ground.http_url, headers={"Authorization": f"Bearer {viewer}"}
+            base_url=ground.http_url, headers={"Authorization": f"Bearer {viewer}"}, timeout=30
         )
         async with op, view:
             for _ in range(100):
@@ -62,6 +65,17 @@ async def platform(embedded_broker, tmp_path, fleet):
 
 def area(**extra) -> dict:
     return {"polygon": rectangle(20, 0, 30, 40), "spacing_m": 10, "altitude_m": 15, **extra}
+
+
+def fenced(**fence) -> dict:
+    return {"drones": ["FULL"], "area": area(), "options": {"geofence": fence}}
+
+
+async def test_a_mission_inside_its_fence_is_accepted(platform):
+    op, _ = platform
+    spec = fenced(inclusion=rectangle(-10, -30, 80, 80), exclusions=[rectangle(70, 0, 10, 10)])
+    r = await op.post("/api/v1/missions/preview", json=spec)
+    assert r.status_code == 200, r.text
 
 
 async def until_state(op: httpx.AsyncClient, mission_id: str, states: set[str], timeout_s=90):
@@ -93,6 +107,10 @@ async def test_preview_gives_waypoints_time_and_battery(platform):
         ({"drones": ["FULL"]}, 422, "give 'steps', 'area', or both"),
         ({"drones": ["FULL"], "steps": [{"command": "warp"}]}, 422, "step 0"),
         ({"drones": ["FULL"], "area": {"polygon": [[1, 2]], "spacing_m": 5}}, 422, "polygon"),
+        (fenced(inclusion=rectangle(-10, -10, 60, 45)), 422, "outside the inclusion fence"),
+        (fenced(exclusions=[rectangle(35, -20, 80, 10)]), 422, "crosses exclusion zone 1"),
+        (fenced(ceiling_m=10), 422, "above the fence ceiling of 10 m"),
+        (fenced(ceiling_m=-1), 422, "ceiling_m"),
     ],
 )
 async def test_bad_missions_are_refused_with_the_reason(platform, spec, status, reason):

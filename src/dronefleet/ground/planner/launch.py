@@ -1,8 +1,9 @@
 """Creating, checking, previewing and starting missions (REST: ``/api/v1/missions``).
 
 A mission is given as steps (the seed's commands) or as an area (coverage). Before it is accepted
-it is checked: no step above the altitude limit, and every drone's battery must finish its share
-with the reserve left (energy estimated from the vehicle model). A refused mission changes nothing.
+it is checked: no step above the altitude limit, every drone's share inside its geofence
+(ground/planner/geofence.py), and every drone's battery must finish its share with the reserve
+left (energy estimated from the vehicle model). A refused mission changes nothing.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from dronefleet.ground.planner.coverage import AreaSpec, plan_area
 from dronefleet.ground.planner.ends import end_steps
 from dronefleet.ground.planner.estimate import VehicleModel, can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
+from dronefleet.ground.planner.geofence import FenceBreach, check_share
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
 from dronefleet.ground.planner.options import MissionOptions, RecordOptions, Strategy
@@ -216,6 +218,14 @@ def assign(
         steps = prefix + [work[i] for i in indices]
         end = end_steps(spec.options.end_action, steps)
         steps += end
+        if spec.options.geofence is not None:
+            try:
+                check_share(
+                    spec.options.geofence, drone.drone_id, drone.position, drone.home, steps,
+                    returns_home=spec.options.end_action == "rtl",
+                )  # fmt: skip
+            except FenceBreach as exc:
+                raise PlannerError(str(exc)) from exc
         est = estimate(
             steps,
             start=drone.position,

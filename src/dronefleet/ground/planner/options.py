@@ -12,6 +12,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.ground.planner.ends import EndAction
+from dronefleet.ground.planner.geofence import Geofence
 
 #: How a drone gets to its work: climbing while flying (ours) or the dissertation's way (seed).
 Strategy = Literal["ours", "seed"]
@@ -32,6 +33,9 @@ class MissionOptions(BaseModel):
     # How each drone's share ends (ground/planner/ends.py): home and land (default), land where
     # the work ended, or hold there.
     end_action: EndAction = "rtl"
+    # Where the mission may fly: checked for every drone's share before it is accepted
+    # (ground/planner/geofence.py).
+    geofence: Geofence | None = None
 
 
 class RecordOptions(MissionOptions):
