@@ -259,3 +259,33 @@ def test_the_planner_maps_what_the_drones_measured(open_page, demo, screenshot):
     assert high > 1000 > low, key  # the plume stands out of the 400 ppm background
     screenshot(page, "10-planner-readings")
     console.assert_clean()
+
+
+def test_the_planner_refuses_a_mission_that_leaves_its_geofence(open_page, demo):
+    here = get(demo, f"/drones/{DRONE}")["position"]
+    m_lon = M_PER_DEG * math.cos(math.radians(here["lat"]))
+
+    def box(n0: float, e0: float, n1: float, e1: float) -> str:
+        pts = [(n0, e0), (n0, e1), (n1, e1), (n1, e0)]
+        return "\n".join(
+            f"{here['lat'] + n / M_PER_DEG}, {here['lon'] + e / m_lon}" for n, e in pts
+        )
+
+    page, console = open_page("planner")
+    page.wait_for_selector(f"#plan-drone-{DRONE}")
+    page.fill("#plan-polygon", box(10, 0, 50, 30))
+    page.dispatch_event("#plan-polygon", "change")
+    page.fill("#plan-fence", box(-20, -20, 30, 50))  # the area's north part is outside
+    page.dispatch_event("#plan-fence", "change")
+    page.check(f"#plan-drone-{DRONE}")
+    page.click("#plan-preview")
+    expect(page.locator("#plan-estimate")).to_contain_text("outside the inclusion fence")
+    assert DRONE in page.inner_text("#plan-estimate")
+    page.click("#fence-from-shape")
+    assert page.input_value("#plan-fence") == page.input_value("#plan-polygon")
+    page.fill("#plan-fence", box(-30, -30, 60, 40))  # the site, the drone's home in it
+    page.dispatch_event("#plan-fence", "change")
+    preview(page)
+    expect(page.locator("#estimate-table")).to_be_visible()
+    # The browser logs the refusal's 422 itself; nothing else may fail.
+    assert all("status of 422" in e for e in console.errors), console.errors

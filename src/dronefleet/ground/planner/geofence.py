@@ -21,6 +21,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 from shapely.geometry import LineString, Point, Polygon
 
+from dronefleet.errors import InvalidInput
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
 from dronefleet.messaging.commands import Command
@@ -50,7 +51,7 @@ class Geofence(BaseModel):
         return value
 
 
-class FenceBreach(ValueError):
+class FenceBreach(InvalidInput, ValueError):
     """A share that would leave the fence: the message says which drone, step and where."""
 
 

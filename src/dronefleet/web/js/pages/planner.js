@@ -23,7 +23,10 @@ export async function mount(root, ctx) {
     hold: num("plan-hold", 2, { min: 0 }),
     flyThrough: el("input", { type: "checkbox", id: "plan-fly-through" }),
     polygon: el("textarea", { id: "plan-polygon", rows: 4, placeholder: "lat, lon per line" }),
+    fence: el("textarea", { id: "plan-fence", rows: 3, placeholder: "lat, lon per line (none: no fence)" }),
+    ceiling: el("input", { type: "number", id: "plan-fence-ceiling", placeholder: "none", min: 1, step: "any" }),
   };
+  const cornersOf = (text) => text.split("\n").map((line) => line.split(",").map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
   // Every mission ends with a safe action (ground/planner/ends.py): home by default.
   const endAction = el("select", { id: "plan-end" },
     el("option", { value: "rtl" }, "Return home and land"),
@@ -51,6 +54,9 @@ export async function mount(root, ctx) {
     field("Front overlap", inputs.front), field("Side overlap", inputs.side),
     field("Altitude (m)", inputs.altitude), field("Angle (°)", inputs.angle),
     field("Action at each waypoint", inputs.action), field("Hold (s)", inputs.hold),
+    // Checked before a mission is accepted: a share leaving it is refused with the reason.
+    field("Geofence corners (fly inside)", inputs.fence), field("Fence ceiling (m above home)", inputs.ceiling),
+    el("div", { class: "buttons" }, btn("fence-from-shape", "Fence = this shape", () => { inputs.fence.value = inputs.polygon.value; drawFence(); })),
     el("div", { class: "field check" }, inputs.flyThrough, el("label", { for: "plan-fly-through" }, "Fly through (photograph without stopping)")));
   const stepsTab = el("div", { id: "tab-steps", hidden: true },
     el("p", { class: "hint" }, "Drag commands into the list (or press Add); drag or use ↑ ↓ to reorder."),
@@ -123,6 +129,9 @@ export async function mount(root, ctx) {
     }
     drawShape();
   });
+  const fenceLine = L.polygon([], { color: "#dc2626", weight: 2, dashArray: "6 4", fill: false }).addTo(map);
+  function drawFence() { fenceLine.setLatLngs(cornersOf(inputs.fence.value)); }
+  inputs.fence.addEventListener("change", drawFence);
   inputs.polygon.addEventListener("change", () => {
     s.vertices = inputs.polygon.value.split("\n").map((line) => line.split(",").map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
     drawShape();
@@ -145,6 +154,12 @@ export async function mount(root, ctx) {
   function spec() {
     const chosen = [...drones.querySelectorAll("input:checked")].map((i) => i.value);
     const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen, options: { end_action: endAction.value } };
+    const fence = cornersOf(inputs.fence.value);
+    if (fence.length || inputs.ceiling.value !== "") {
+      body.options.geofence = {};
+      if (fence.length) body.options.geofence.inclusion = fence;
+      if (inputs.ceiling.value !== "") body.options.geofence.ceiling_m = Number(inputs.ceiling.value);
+    }
     if (kind.value === "steps") {
       body.steps = editor.steps();
       return body;
