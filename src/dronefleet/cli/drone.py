@@ -111,6 +111,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--gear-dir", type=Path, help="folder with specs.json and sensors.json")
     p.add_argument("--heartbeat-s", type=float, default=5.0, help="heartbeat interval (vehicle s)")
     p.add_argument("--battery-critical", type=float, default=20.0, help="CRITICAL alarm below %%")
+    p.add_argument("--battery-rtl", type=float, default=12.0, help="below %%, stop and return home")
+    p.add_argument("--battery-land", type=float, default=6.0, help="below %%, land where it is")
     p.add_argument(
         "--sensor-bound", type=parse_bound, action="append", default=[], help="FIELD:LOW:HIGH"
     )
@@ -127,10 +129,19 @@ def run(args: argparse.Namespace) -> int:
     except TopicError as exc:
         print(f"dronefleet drone: {exc}", file=sys.stderr)
         return 2
+    if not 0 <= args.battery_land <= args.battery_rtl <= 100:
+        print(
+            "dronefleet drone: battery levels must satisfy 0 <= --battery-land <= --battery-rtl"
+            f" <= 100 (got {args.battery_land:g} and {args.battery_rtl:g})",
+            file=sys.stderr,
+        )
+        return 2
     config = DroneConfig(
         drone_id=drone_id,
         heartbeat_interval_s=args.heartbeat_s,
         battery_critical_pct=args.battery_critical,
+        battery_rtl_pct=args.battery_rtl,
+        battery_land_pct=args.battery_land,
         log_dir=args.log_dir,
         gear_dir=args.gear_dir,
         state_dir=args.state_dir,

@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import logging
 
+from dronefleet.drone.battery_guard import BatteryGuard
 from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.controller import DroneController
 from dronefleet.drone.failsafe import FailSafe
@@ -69,6 +70,10 @@ class DroneApp:
             listen_to_broker=False,  # fed below from the autopilot and the sensors (issue 12)
         )
         self.controller.add_sample_listener(self.failsafe.feed)
+        self.battery_guard = BatteryGuard(
+            self.mission_worker, rtl_pct=config.battery_rtl_pct, land_pct=config.battery_land_pct
+        )
+        self.controller.add_sample_listener(self.battery_guard.feed)
         self.gear.sample_listeners.append(self.failsafe.feed)
         self.logger = (
             DroneLogger(drone_id, self.clients["logger"], config.log_dir)

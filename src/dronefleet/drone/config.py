@@ -19,7 +19,10 @@ class DroneConfig:
     # Telemetry is sampled at 5 Hz of vehicle time; a sped-up vehicle would multiply that in wall
     # time and flood the broker, so at most this many messages per wall second are sent.
     telemetry_max_wall_hz: float = 10.0
-    battery_critical_pct: float = 20.0
+    battery_critical_pct: float = 20.0  # CRITICAL alarm: the ground replaces the drone
+    # Below these the drone acts by itself (drone/battery_guard.py): home, then land here.
+    battery_rtl_pct: float = 12.0
+    battery_land_pct: float = 6.0
     # Fly eligible missions on board (MAVLink AUTO) unless a mission asks otherwise
     # (``MissionRequest.onboard``); ``dronefleet drone --onboard-missions``.
     onboard_missions: bool = False
