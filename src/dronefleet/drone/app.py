@@ -14,6 +14,7 @@ from dronefleet.drone.battery_guard import BatteryGuard
 from dronefleet.drone.config import DroneConfig
 from dronefleet.drone.controller import DroneController
 from dronefleet.drone.failsafe import FailSafe
+from dronefleet.drone.fence_guard import FenceGuard
 from dronefleet.drone.gear import GearManager
 from dronefleet.drone.link_loss import LinkLossAction, LinkWatch
 from dronefleet.drone.logger import DroneLogger
@@ -74,6 +75,8 @@ class DroneApp:
             self.mission_worker, rtl_pct=config.battery_rtl_pct, land_pct=config.battery_land_pct
         )
         self.controller.add_sample_listener(self.battery_guard.feed)
+        self.fence_guard = FenceGuard(self.mission_worker)
+        self.controller.add_sample_listener(self.fence_guard.feed)
         self.gear.sample_listeners.append(self.failsafe.feed)
         self.logger = (
             DroneLogger(drone_id, self.clients["logger"], config.log_dir)

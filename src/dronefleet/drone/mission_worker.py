@@ -29,6 +29,7 @@ from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError, decode, decode_object
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import validate
+from dronefleet.messaging.fence import Geofence
 from dronefleet.messaging.gear import GearQuery
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import (
@@ -89,6 +90,7 @@ class MissionWorker:
         self._done: set[int] = set()  # indices of its steps reported done
         self.paused: Paused | None = None  # a mission someone else took the vehicle from
         self._asked: Takeover | None = None  # a pause asked for, for the running mission
+        self.fence: Geofence | None = None  # the running mission's geofence
 
     async def start(self) -> None:
         await self.client.subscribe(
@@ -153,6 +155,7 @@ class MissionWorker:
             await self._cancel_current(reason=f"replaced by mission {mission_id}")
             self.queue = deque(enumerate(steps, start=request.start_index))
             self._steps, self._done, self._asked = list(self.queue), set(), None
+            self.fence = request.fence  # kept to in flight (drone/fence_guard.py)
             self.mission_id = mission_id
             self.controller.mission_id = mission_id
             await self._report(

@@ -17,6 +17,7 @@ from pydantic import Field
 from dronefleet.messaging.codec import MessageError, decode, encode
 from dronefleet.messaging.commands import RequestId, parse_step
 from dronefleet.messaging.common import DroneId, Message, Position, wall_time
+from dronefleet.messaging.fence import Geofence
 
 MAX_STEPS = 10_000
 
@@ -38,6 +39,9 @@ class MissionRequest(Message):
     mission: str | None = Field(default=None, description="base64 of a JSON list of steps")
     steps: list[dict[str, Any]] | None = Field(default=None, max_length=MAX_STEPS)
     start_index: int = Field(default=0, ge=0, description="index of the first step's label")
+    fence: Geofence | None = Field(
+        default=None, description="where the drone may fly this mission (drone/fence_guard.py)"
+    )
     onboard: bool | None = Field(
         default=None,
         description="fly on board the autopilot (true), from the companion computer (false), "

@@ -232,6 +232,7 @@ class MissionPlanner:
             mission_id=leg.leg_id,
             steps=leg.drone_steps(record.work),
             onboard=record.options.onboard,
+            fence=record.options.geofence,
         )
         await self.client.publish(
             topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
