@@ -12,6 +12,7 @@ import logging
 import sys
 
 from dronefleet import __version__
+from dronefleet.log_lines import OneLineFormatter
 
 #: Modules that contribute subcommands. A missing one (a room not built yet) is skipped.
 COMMAND_MODULES = (
@@ -43,12 +44,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def setup_logging(verbosity: int) -> None:
+    """Log to stderr, one line per record (log_lines.py: nothing received can forge a line)."""
     level = logging.WARNING - 10 * verbosity
-    logging.basicConfig(
-        level=max(level, logging.DEBUG),
-        format="%(asctime)s %(levelname)-7s %(name)s: %(message)s",
-        datefmt="%H:%M:%S",
+    handler = logging.StreamHandler()
+    handler.setFormatter(
+        OneLineFormatter("%(asctime)s %(levelname)-7s %(name)s: %(message)s", "%H:%M:%S")
     )
+    logging.basicConfig(level=max(level, logging.DEBUG), handlers=[handler])
 
 
 def main(argv: list[str] | None = None) -> int:
