@@ -46,6 +46,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=10.0,
         help="seconds a mission may take to plan (then 422 'too complex')",
     )
+    g.add_argument(
+        "--lost-after",
+        type=positive_speedup,  # a positive, finite number of seconds
+        default=2.0,
+        help="wall seconds at least without a heartbeat before a drone is lost (and its work "
+        "taken over, or its mission stalled): 3 heartbeat intervals, never less than this",
+    )
     g.set_defaults(func=run_ground)
 
     b = sub.add_parser(
@@ -104,6 +111,7 @@ async def _ground(args: argparse.Namespace) -> int:
         admin_token=args.admin_token,
         command_timeout_s=args.command_timeout,
         planning_budget_s=args.planning_budget,
+        lost_after_s=args.lost_after,
     )
     try:
         await services.start()

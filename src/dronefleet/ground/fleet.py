@@ -82,14 +82,15 @@ class DroneRecord(BaseModel):
             self.status_changed = now
         return came_back
 
-    def deadline(self) -> float:
+    def deadline(self, min_lost_after_s: float = MIN_LOST_AFTER_S) -> float:
         """Wall time after which, without a heartbeat, the drone is lost.
 
-        Never sooner than :data:`MIN_LOST_AFTER_S`: a drone simulated many times faster than real
-        time beats every fraction of a second, and a busy host delays messages by more than that.
+        Never sooner than ``min_lost_after_s`` (``dronefleet ground --lost-after``): a drone
+        simulated many times faster than real time beats every fraction of a second, a busy host
+        delays messages by more than that, and a link known to be lossy may want longer.
         """
         return self.last_seen + max(
-            LOST_AFTER_INTERVALS * self.heartbeat_interval_s, MIN_LOST_AFTER_S
+            LOST_AFTER_INTERVALS * self.heartbeat_interval_s, min_lost_after_s
         )
 
     def seen_ago_s(self, now: float | None = None) -> float:

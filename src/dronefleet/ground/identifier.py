@@ -19,7 +19,7 @@ from typing import Any, Literal
 from pydantic import Field
 
 from dronefleet.clock import timestamp_s
-from dronefleet.ground.fleet import DroneRecord, DroneStatus, LenientHeartbeat
+from dronefleet.ground.fleet import MIN_LOST_AFTER_S, DroneRecord, DroneStatus, LenientHeartbeat
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
@@ -56,7 +56,15 @@ GEAR_RETRY_S = 30.0
 class DroneIdentifier:
     """The fleet, built from heartbeats and gear answers. ``start()``/``stop()`` it."""
 
-    def __init__(self, broker_url: Any, state: StateStore, *, client_id: str) -> None:
+    def __init__(
+        self,
+        broker_url: Any,
+        state: StateStore,
+        *,
+        client_id: str,
+        lost_after_s: float = MIN_LOST_AFTER_S,
+    ) -> None:
+        self.lost_after_s = lost_after_s  # at least this long unheard before "lost"
         self.client = BrokerClient(broker_url, client_id)
         self.requester = Requester(self.client)
         self.state = state
@@ -140,7 +148,9 @@ class DroneIdentifier:
             await asyncio.sleep(0.05)
             now = timestamp_s()
             for record in list(self.fleet.values()):
-                if record.status is not DroneStatus.LOST and now > record.deadline():
+                if record.status is not DroneStatus.LOST and now > record.deadline(
+                    self.lost_after_s
+                ):
                     record.status = DroneStatus.LOST
                     record.status_changed = now
                     self._dirty.add(record.drone_id)

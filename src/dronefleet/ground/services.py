@@ -17,6 +17,7 @@ from typing import Any
 
 import uvicorn
 
+from dronefleet.ground.fleet import MIN_LOST_AFTER_S
 from dronefleet.ground.identifier import DroneIdentifier
 from dronefleet.ground.manager.app import create_app
 from dronefleet.ground.manager.auth import Role, TokenBook
@@ -55,7 +56,9 @@ class GroundServices:
         planner_client_id: str = "ground-planner",
         planning_processes: int = 1,
         planning_budget_s: float = DEFAULT_BUDGET_S,
+        lost_after_s: float = MIN_LOST_AFTER_S,
     ) -> None:
+        self.lost_after_s = lost_after_s  # a drone unheard this long (at least) is lost
         self.broker_url = (
             broker_url if isinstance(broker_url, BrokerUrl) else BrokerUrl.parse(broker_url)
         )
@@ -112,7 +115,9 @@ class GroundServices:
         presence = GroundPresence(url, planner_id=self.planner_client_id)
         await presence.start()
         self._started.append(presence)
-        self.identifier = DroneIdentifier(url, self.state, client_id=f"ground-identifier-{suffix}")
+        self.identifier = DroneIdentifier(
+            url, self.state, client_id=f"ground-identifier-{suffix}", lost_after_s=self.lost_after_s
+        )
         self.connector = TelemetryConnector(
             url, self.telemetry, client_id=f"ground-telemetry-{suffix}"
         )

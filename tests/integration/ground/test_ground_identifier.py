@@ -24,6 +24,7 @@ def test_lost_after_three_observed_intervals_and_online_on_the_next():
     assert record.deadline() == 115.0  # only interval_s known: 3 x 5 s
     record.observe(hb(), now=100.5)  # a 10x sped-up drone: 0.5 s of wall time per heartbeat
     assert record.deadline() == pytest.approx(102.5)  # 3 x 0.5 s is under the 2 s floor
+    assert record.deadline(10.0) == pytest.approx(110.5)  # dronefleet ground --lost-after 10
     record.status = DroneStatus.LOST
     assert record.observe(hb(), now=140.0) is True  # back
     assert record.status is DroneStatus.ONLINE
