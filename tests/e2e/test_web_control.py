@@ -130,7 +130,14 @@ def test_control_flies_quad_2_and_asks_before_destructive_commands(open_page, de
         assert (
             area["x"] < x < area["x"] + area["width"] and area["y"] < y < area["y"] + area["height"]
         )
+        before = len(sent)
+        page.mouse.click(x, y)  # asked first (how far, how high); dismissed, nothing is sent
+        assert dialogs[-1].startswith(f"Fly {DRONE} to ") and " m away)?" in dialogs[-1], dialogs
+        page.wait_for_timeout(300)
+        assert sent[before:] == []
+        reply["accept"] = True
         _, answer = command(page, "navigate", lambda: page.mouse.click(x, y))
+        reply["accept"] = False
         target = answer["result"]["target"]
         m_per_px = 156_543.03 * math.cos(math.radians(here["lat"])) / 2**19
         assert offset_m(here, target) == pytest.approx((50 * m_per_px, 70 * m_per_px), abs=3.0)

@@ -73,8 +73,14 @@ export async function mount(root, ctx) {
 
   const map = await makeMap(mapBox);
   const markers = new Map();
+  // A click on the map sends the drone there: asked first, with how far it is (issue 14).
   map.on("click", (e) => {
-    if (!ctx.me.can_command) return;
+    if (!ctx.me.can_command || !select.value) return;
+    const drone = ctx.fleet.list().find((d) => d.drone_id === select.value);
+    const from = drone && latLngOf(drone.position);
+    const away = from ? ` (${Math.round(map.distance(from, e.latlng))} m away)` : "";
+    const where = `${e.latlng.lat.toFixed(6)}, ${e.latlng.lng.toFixed(6)}`;
+    if (!window.confirm(`Fly ${select.value} to ${where} at ${Number(altitude.value)} m${away}?`)) return;
     post("navigate", { lat: e.latlng.lat, lon: e.latlng.lng, altitude_delta: Number(altitude.value) });
   });
   let fitted = false;
