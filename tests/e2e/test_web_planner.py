@@ -71,6 +71,10 @@ def test_planner_three_clicks_make_a_parallelogram_and_overlap_sets_the_lines(op
             f"#estimate-table caption:text-matches('^{waypoints[overlap]} waypoints')"
         )
     assert waypoints[0.8] > waypoints[0.3] > 0, waypoints
+    # Each drone's row shows its colour on the map and what the plan decided for it.
+    row = page.locator(f"#estimate-table tr[data-drone='{DRONE}']")
+    assert row.locator(".swatch").get_attribute("style").startswith("background:")
+    assert row.locator("td.notes").inner_text().strip()
     console.assert_clean()
 
 

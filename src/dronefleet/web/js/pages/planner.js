@@ -26,6 +26,7 @@ export async function mount(root, ctx) {
     fence: el("textarea", { id: "plan-fence", rows: 3, placeholder: "lat, lon per line (none: no fence)" }),
     ceiling: el("input", { type: "number", id: "plan-fence-ceiling", placeholder: "none", min: 1, step: "any" }),
   };
+  const colorOf = (id) => colorFor(Math.max(0, ctx.fleet.list().findIndex((d) => d.drone_id === id)));
   const cornersOf = (text) => text.split("\n").map((line) => line.split(",").map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
   // Every mission ends with a safe action (ground/planner/ends.py): home by default.
   const endAction = el("select", { id: "plan-end" },
@@ -190,10 +191,13 @@ export async function mount(root, ctx) {
       points.forEach((p, i) => L.circleMarker(p, { radius: 3, color: "#f97316" }).bindTooltip(`#${i + 1}`).addTo(waypoints));
       estimate.replaceChildren(el("table", { class: "grid", id: "estimate-table" },
         el("caption", {}, `${points.length} waypoints${answer.area_m2 ? `, ${answer.area_m2} m²` : ""}`),
-        el("thead", {}, el("tr", {}, ...["Drone", "Steps", "Time", "Battery used", "Battery left"].map((h) => el("th", { scope: "col" }, h)))),
-        el("tbody", {}, ...answer.drones.map((d) => el("tr", {},
-          el("th", { scope: "row" }, d.drone_id), el("td", {}, d.steps), el("td", {}, fmtDuration(d.duration_s)),
-          el("td", {}, `${d.battery_used_pct} %`), el("td", {}, `${d.battery_end_pct} %`))))));
+        el("thead", {}, el("tr", {}, ...["Drone", "Steps", "Time", "Battery used", "Battery left", "Notes"].map((h) => el("th", { scope: "col" }, h)))),
+        el("tbody", {}, ...answer.drones.map((d) => el("tr", { "data-drone": d.drone_id },
+          // The drone's colour on the map (its trail), and what the plan decided for it.
+          el("th", { scope: "row" }, el("span", { class: "swatch", style: `background:${colorOf(d.drone_id)}`, "aria-hidden": "true" }), d.drone_id),
+          el("td", {}, d.steps), el("td", {}, fmtDuration(d.duration_s)),
+          el("td", {}, `${d.battery_used_pct} %`), el("td", {}, `${d.battery_end_pct} %`),
+          el("td", { class: "notes" }, d.notes.length ? d.notes.join("; ") : "—"))))));
     } catch (err) {
       estimate.textContent = `Preview failed: ${err.message}`;
     }
