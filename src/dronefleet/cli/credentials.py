@@ -36,8 +36,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--state", type=Path, required=True)
     r.set_defaults(func=run_credentials, role=None)
 
-    b = sub.add_parser("broker-config", help="write the broker's password and ACL files")
-    b.add_argument("--broker", choices=["mosquitto"], default="mosquitto")
+    b = sub.add_parser(
+        "broker-config",
+        help="write the broker's users and rights: Mosquitto password and ACL files, or a "
+        "RabbitMQ definitions file",
+    )
+    b.add_argument("--broker", choices=["mosquitto", "rabbitmq"], default="mosquitto")
+    b.add_argument(
+        "--vhost", default="dronefleet", help="RabbitMQ: the fleet's vhost (clients: VHOST:USER)"
+    )
     b.add_argument("--state", type=Path, required=True, help="the ground state DB")
     b.add_argument(
         "--out", type=Path, required=True, help="folder for passwd, acl, dronefleet.conf"
@@ -91,8 +98,10 @@ def run_broker_config(args: argparse.Namespace) -> int:
         print("dronefleet broker-config: no broker users yet (dronefleet credentials add-...)",
               file=sys.stderr)  # fmt: skip
         return 2
-    passwords, acl = mosquitto_files(users)
     out: Path = args.out.resolve()
+    if args.broker == "rabbitmq":
+        return _rabbitmq(users, args.vhost, out)
+    passwords, acl = mosquitto_files(users)
     _secret_file(out / "passwd", passwords)
     _secret_file(out / "acl", acl)
     host, port = args.listener
@@ -102,6 +111,24 @@ def run_broker_config(args: argparse.Namespace) -> int:
         f"password_file {out / 'passwd'}\nacl_file {out / 'acl'}\n"
     )
     print(f"wrote {out}/passwd, {out}/acl and {out}/dronefleet.conf ({len(users.all())} users)")
+    return 0
+
+
+def _rabbitmq(users: BrokerUsers, vhost: str, out: Path) -> int:
+    import json
+
+    from dronefleet.errors import InvalidInput
+    from dronefleet.messaging.rabbit_acl import rabbitmq_definitions
+
+    try:
+        definitions = rabbitmq_definitions(users, vhost)
+    except InvalidInput as exc:
+        print(f"dronefleet broker-config: {exc}", file=sys.stderr)
+        return 2
+    path = out / "rabbitmq-definitions.json"
+    _secret_file(path, json.dumps(definitions, indent=2) + "\n")
+    print(f"wrote {path} ({len(users.all())} users in vhost {vhost!r}); load it with:")
+    print(f"  rabbitmqctl import_definitions {path}")
     return 0
 
 

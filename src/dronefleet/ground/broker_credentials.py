@@ -20,6 +20,8 @@ CREATE TABLE IF NOT EXISTS broker_users (
     created_at REAL NOT NULL
 );
 """
+#: Added later: RabbitMQ's hash of the same password (users made before have none).
+_RABBIT_COLUMN = "ALTER TABLE broker_users ADD COLUMN rabbit_hash TEXT"
 
 
 class BrokerCredentials:
@@ -28,6 +30,9 @@ class BrokerCredentials:
 
     async def open(self) -> BrokerCredentials:
         await self.state.script(_SCHEMA)
+        columns = {row[1] for row in await self.state.rows("PRAGMA table_info(broker_users)")}
+        if "rabbit_hash" not in columns:
+            await self.state.write((_RABBIT_COLUMN, ()))
         return self
 
     async def add(self, name: str, role: BrokerRole, password: str | None = None) -> str:
@@ -37,10 +42,11 @@ class BrokerCredentials:
         user = users.all()[0]
         await self.state.write(
             (
-                "INSERT INTO broker_users (name, role, password_hash, created_at) "
-                "VALUES (?, ?, ?, ?) ON CONFLICT(name) DO UPDATE SET role=excluded.role, "
-                "password_hash=excluded.password_hash, created_at=excluded.created_at",
-                (user.name, user.role.value, user.password_hash, timestamp_s()),
+                "INSERT INTO broker_users (name, role, password_hash, created_at, rabbit_hash) "
+                "VALUES (?, ?, ?, ?, ?) ON CONFLICT(name) DO UPDATE SET role=excluded.role, "
+                "password_hash=excluded.password_hash, created_at=excluded.created_at, "
+                "rabbit_hash=excluded.rabbit_hash",
+                (user.name, user.role.value, user.password_hash, timestamp_s(), user.rabbit_hash),
             )
         )
         return password
@@ -51,8 +57,8 @@ class BrokerCredentials:
 
     async def users(self) -> BrokerUsers:
         users = BrokerUsers()
-        for name, role, hashed in await self.state.rows(
-            "SELECT name, role, password_hash FROM broker_users ORDER BY name"
+        for name, role, hashed, rabbit in await self.state.rows(
+            "SELECT name, role, password_hash, rabbit_hash FROM broker_users ORDER BY name"
         ):
-            users.add_hashed(BrokerUser(name, BrokerRole(role), hashed))
+            users.add_hashed(BrokerUser(name, BrokerRole(role), hashed, rabbit))
         return users

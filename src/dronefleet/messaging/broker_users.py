@@ -33,6 +33,7 @@ class BrokerUser:
     name: str  # a drone's user name is its drone id
     role: BrokerRole
     password_hash: str
+    rabbit_hash: str | None = None  # RabbitMQ's form of the same password (rabbit_acl.py)
 
 
 def hash_password(password: str, *, salt: bytes | None = None) -> str:
@@ -40,6 +41,13 @@ def hash_password(password: str, *, salt: bytes | None = None) -> str:
     key = hashlib.pbkdf2_hmac("sha512", password.encode(), salt, ITERATIONS)
     b64 = base64.b64encode
     return f"$7${ITERATIONS}${b64(salt).decode()}${b64(key).decode()}"
+
+
+def rabbit_hash(password: str, *, salt: bytes | None = None) -> str:
+    """RabbitMQ's ``rabbit_password_hashing_sha256``: base64(salt + SHA-256(salt + password)),
+    a 32-bit salt (RabbitMQ's "Credentials and Passwords" guide), for its definitions file."""
+    salt = salt if salt is not None else secrets.token_bytes(4)
+    return base64.b64encode(salt + hashlib.sha256(salt + password.encode()).digest()).decode()
 
 
 def check_password(password: str, hashed: str) -> bool:
@@ -70,7 +78,7 @@ class BrokerUsers:
         elif not name or ":" in name or name.startswith(GROUND_PREFIX + "/"):
             raise InvalidInput(f"bad broker user name {name!r}")
         password = password or new_password()
-        self._users[name] = BrokerUser(name, role, hash_password(password))
+        self._users[name] = BrokerUser(name, role, hash_password(password), rabbit_hash(password))
         return password
 
     def add_hashed(self, user: BrokerUser) -> None:
