@@ -4,6 +4,7 @@ the usage (exit 2), before anything starts (issue 11)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 from pathlib import Path
@@ -14,9 +15,11 @@ from dronefleet.messaging.url import BrokerUrl
 def broker_url(text: str) -> str:
     """``--broker``: an ``mqtt://[user:pass@]host[:port]`` URL (checked, passed on as given)."""
     try:
-        BrokerUrl.parse(text)
+        url = BrokerUrl.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(f"{exc} (e.g. mqtt://127.0.0.1:1883)") from None
+    if url.ca_file is not None and not os.access(url.ca_file, os.R_OK):
+        raise argparse.ArgumentTypeError(f"the broker's CA file {url.ca_file} cannot be read")
     return text
 
 
@@ -46,7 +49,7 @@ def broker_with_password(url: str, password_file: Path | None) -> str:
         return url
     if not parsed.username:
         raise ValueError("a broker password needs a user: --broker mqtt://USER@HOST:PORT")
-    return BrokerUrl(parsed.host, parsed.port, parsed.username, secret).full()
+    return dataclasses.replace(parsed, password=secret).full()
 
 
 def port_number(text: str) -> int:

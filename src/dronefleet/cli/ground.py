@@ -63,6 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--username", help="the drone's broker user (dronefleet credentials add-drone)")
     b.add_argument("--password-file", type=Path, help="file holding its password")
     b.add_argument("--connection", default="groundRelay", help="bridge connection name")
+    b.add_argument(
+        "--cafile", type=Path, help="TLS to the ground broker: the CA that signed its certificate"
+    )
     b.add_argument("--listener", type=_host_port, help="also write a listener: a whole config")
     b.set_defaults(func=run_bridge_config)
 
@@ -79,6 +82,7 @@ def run_bridge_config(args: argparse.Namespace) -> int:
             password=args.password_file.read_text().strip() if args.password_file else None,
             connection=args.connection,
             listener=args.listener,
+            cafile=str(args.cafile.resolve()) if args.cafile else None,
         )
     except (OSError, ValueError) as exc:
         print(f"dronefleet bridge-config: {exc}", file=sys.stderr)

@@ -57,6 +57,7 @@ def bridge_config(
     listener: tuple[str, int] | None = None,
     qos: int = 1,
     max_queued: int = MAX_QUEUED,
+    cafile: str | None = None,
 ) -> str:
     """The bridge section for ``drone_id`` (a full ``mosquitto.conf`` if ``listener`` is given)."""
     check_drone_id(drone_id)
@@ -79,6 +80,8 @@ def bridge_config(
             "",
         ]
     lines += [f"connection {connection}", f"address {ground_host}:{ground_port}"]
+    if cafile:  # TLS to the ground: its certificate checked against this CA, and its name
+        lines += [f"bridge_cafile {_quote_free('CA file', cafile)}", "bridge_insecure false"]
     if username:
         lines.append(f"username {_quote_free('username', username)}")
     if password:

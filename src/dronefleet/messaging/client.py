@@ -13,6 +13,7 @@ import asyncio
 import contextlib
 import logging
 import socket
+import ssl
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -91,6 +92,9 @@ class BrokerClient:
         persistent_session: bool = False,
     ) -> None:
         self.url = url if isinstance(url, BrokerUrl) else BrokerUrl.parse(url)
+        # mqtts://: the broker's certificate is checked (against ?cafile=, else the system's
+        # CAs) and its name must match; never an unverified TLS link (issue 12).
+        self._tls = ssl.create_default_context(cafile=self.url.ca_file) if self.url.tls else None
         self.client_id = client_id
         self.keepalive_s = keepalive_s
         self.reconnect_s = reconnect_s
@@ -234,6 +238,7 @@ class BrokerClient:
                     keepalive=self.keepalive_s,
                     queue_type=self._queue_type,
                     logger=_MQTT_LOG,
+                    tls_context=self._tls,
                 ) as client:
                     self._client = client
                     _no_delay(client)

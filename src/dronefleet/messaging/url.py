@@ -1,9 +1,13 @@
-"""Broker URLs: ``mqtt://user:pass@host:port`` chooses the broker (docs/DESIGN.md §3)."""
+"""Broker URLs choose the broker (docs/DESIGN.md §3): ``mqtt://user:pass@host:port``, or over
+TLS ``mqtts://user@host:8883?cafile=/path/ca.pem`` (the broker's certificate checked against that
+CA, or the system's CAs without one; issue 12)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from urllib.parse import quote, unquote, urlsplit
+from urllib.parse import parse_qs, quote, unquote, urlsplit
+
+_TLS = {"mqtts", "ssl"}
 
 
 @dataclass(frozen=True)
@@ -12,28 +16,45 @@ class BrokerUrl:
     port: int = 1883
     username: str | None = None
     password: str | None = None
+    tls: bool = False
+    ca_file: str | None = None  # the CA that signed the broker's certificate (TLS)
 
     @classmethod
     def parse(cls, url: str) -> BrokerUrl:
         parts = urlsplit(url if "://" in url else f"mqtt://{url}")
-        if parts.scheme not in {"mqtt", "tcp"}:
-            raise ValueError(f"broker URL {url!r}: scheme must be mqtt://")
+        if parts.scheme not in {"mqtt", "tcp", *_TLS}:
+            raise ValueError(f"broker URL {url!r}: scheme must be mqtt:// or mqtts://")
         if not parts.hostname:
             raise ValueError(f"broker URL {url!r} has no host")
+        tls = parts.scheme in _TLS
         try:
-            port = parts.port or 1883
+            port = parts.port or (8883 if tls else 1883)
         except ValueError as exc:
             raise ValueError(f"broker URL {url!r} has an invalid port") from exc
+        query = parse_qs(parts.query)
+        if set(query) - {"cafile"} or (query and not tls):
+            raise ValueError(f"broker URL {url!r}: the only option is ?cafile=, with mqtts://")
         return cls(
             host=parts.hostname,
             port=port,
             username=unquote(parts.username) if parts.username else None,
             password=unquote(parts.password) if parts.password else None,
+            tls=tls,
+            ca_file=query["cafile"][-1] if "cafile" in query else None,
         )
+
+    def _tail(self) -> str:
+        return f"{self.host}:{self.port}" + (
+            f"?cafile={quote(self.ca_file, safe='/')}" if self.ca_file else ""
+        )
+
+    @property
+    def scheme(self) -> str:
+        return "mqtts" if self.tls else "mqtt"
 
     def __str__(self) -> str:
         auth = f"{self.username}:***@" if self.username else ""
-        return f"mqtt://{auth}{self.host}:{self.port}"
+        return f"{self.scheme}://{auth}{self._tail()}"
 
     def full(self) -> str:
         """The URL with its password, for handing to a child process."""
@@ -41,4 +62,4 @@ class BrokerUrl:
         if self.username:
             secret = f":{quote(self.password, safe='')}" if self.password else ""
             auth = quote(self.username, safe="") + secret + "@"
-        return f"mqtt://{auth}{self.host}:{self.port}"
+        return f"{self.scheme}://{auth}{self._tail()}"
