@@ -12,8 +12,6 @@ site a few kilometres wide straight lines in it differ from great circles by cen
 
 from __future__ import annotations
 
-from typing import Any
-
 from pydantic import ConfigDict, Field, field_validator
 from shapely.geometry import LineString, Point, Polygon
 
@@ -33,17 +31,27 @@ class Geofence(Message):
     exclusions: list[LatLonList] = Field(default_factory=list, max_length=100)
     ceiling_m: float | None = Field(default=None, gt=0, le=10_000)
 
-    @field_validator("inclusion", "exclusions")
+    @field_validator("inclusion")
     @classmethod
-    def _polygons(cls, value: Any) -> Any:
-        shapes = [value] if value and isinstance(value[0][0], int | float) else value or []
-        for shape in shapes:
-            if len(shape) < 3 or len(shape) > 1000:
-                raise ValueError("a fence polygon has 3 to 1000 [lat, lon] corners")
-            for corner in shape:
-                if len(corner) != 2 or not (-90 <= corner[0] <= 90 and -180 <= corner[1] <= 180):
-                    raise ValueError(f"a fence corner is [lat, lon] in degrees, not {corner}")
+    def _inclusion(cls, value: LatLonList | None) -> LatLonList | None:
+        if value is not None:
+            _check_polygon(value)
         return value
+
+    @field_validator("exclusions")
+    @classmethod
+    def _exclusions(cls, value: list[LatLonList]) -> list[LatLonList]:
+        for shape in value:
+            _check_polygon(shape)
+        return value
+
+
+def _check_polygon(shape: LatLonList) -> None:
+    if not 3 <= len(shape) <= 1000:
+        raise ValueError("a fence polygon has 3 to 1000 [lat, lon] corners")
+    for corner in shape:
+        if len(corner) != 2 or not (-90 <= corner[0] <= 90 and -180 <= corner[1] <= 180):
+            raise ValueError(f"a fence corner is [lat, lon] in degrees, not {corner}")
 
 
 class FenceShape:

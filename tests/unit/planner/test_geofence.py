@@ -71,6 +71,8 @@ def test_the_ceiling_holds_for_waypoints_and_takeoff() -> None:
         {"inclusion": [[91.0, 0.0], [40.0, 0.0], [40.0, 1.0]]},  # not a latitude
         {"exclusions": [[[40.0, -8.0, 3.0], [40.1, -8.0], [40.1, -8.1]]]},  # three numbers
         {"ceiling_m": -5},
+        {"inclusion": [], "exclusions": [[]]},  # empty shapes (the fuzzer's 500, once)
+        {"inclusion": [[40.0, -8.0], [40.1, -8.0], [40.1, float("nan")]]},
         {"inclusion": SITE, "height": 3},  # an unknown key
     ],
 )

@@ -19,7 +19,7 @@ from dronefleet.ground.manager.schemas import MissionLog
 from dronefleet.ground.planner import launch, measurements
 from dronefleet.ground.planner.launch import MissionSpec
 from dronefleet.ground.planner.mission_log import build_log
-from dronefleet.ground.planner.schemas import MissionDetail, MissionSummary, Preview
+from dronefleet.ground.planner.schemas import MissionDetail, MissionSummary, Preview, Readings
 from dronefleet.ground.planner.service import MissionPlanner
 
 # Every route needs a token (401/403) and the planner (503); each adds what else it can answer.
@@ -157,7 +157,11 @@ async def _stop(request: Request, who: Any, mission_id: str, *, home: bool) -> M
     summary="What the drones measured: one point per sensor reading, GeoJSON or CSV",
     responses={
         200: {
-            "content": {"application/geo+json": {}, "text/csv": {}},
+            "model": Readings,
+            "content": {
+                "application/geo+json": {"schema": {"$ref": "#/components/schemas/Readings"}},
+                "text/csv": {"schema": {"type": "string"}},
+            },
             "description": "a FeatureCollection of Points, or CSV with a header row",
         },
         **answers(404),

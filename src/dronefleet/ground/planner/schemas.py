@@ -7,7 +7,7 @@ a published schema that lies.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict
 
@@ -71,6 +71,21 @@ class DroneShare(BaseModel):
     battery_used_pct: float
     battery_end_pct: float
     notes: list[str]
+
+
+class ReadingFeature(BaseModel):
+    """One sensor reading as a GeoJSON Point feature (ground/planner/measurements.py)."""
+
+    type: Literal["Feature"]
+    geometry: dict[str, Any]
+    properties: dict[str, Any]
+
+
+class Readings(BaseModel):
+    """What the drones measured: a GeoJSON FeatureCollection (RFC 7946)."""
+
+    type: Literal["FeatureCollection"]
+    features: list[ReadingFeature]
 
 
 class Preview(BaseModel):
