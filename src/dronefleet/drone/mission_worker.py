@@ -13,7 +13,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections import OrderedDict, deque
+from collections import deque
 from typing import Any
 
 from dronefleet.clock import timestamp_s
@@ -21,7 +21,7 @@ from dronefleet.drone import onboard
 from dronefleet.drone.controller import CommandError, DroneController
 from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.outbox import Outbox
-from dronefleet.drone.report_store import ReportStore, interrupted
+from dronefleet.drone.report_history import ReportHistory
 from dronefleet.drone.state import position_of
 from dronefleet.drone.takeover import OPERATOR, POLL_S, Paused, Takeover
 from dronefleet.errors import Failed
@@ -33,7 +33,6 @@ from dronefleet.messaging.fence import Geofence
 from dronefleet.messaging.gear import GearQuery
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import (
-    MAX_STEPS,
     MissionAction,
     MissionProgress,
     MissionRequest,
@@ -49,14 +48,6 @@ log = logging.getLogger(__name__)
 _throttle = LogThrottle(
     log
 )  # one line per kind per 10 s: junk on the broker must not flood the log
-
-
-#: Missions whose reports are kept for replay, and reports kept per mission (a step each, and a
-#: few more). A replay of one mission is answered at most once per REPLAY_GAP_S vehicle seconds:
-#: 20 report requests once made a drone publish 100,040 messages (issue 11).
-HISTORY_MISSIONS = 20
-REPORTS_PER_MISSION = MAX_STEPS + 16
-REPLAY_GAP_S = 2.0
 
 
 class StepFailed(Failed):
@@ -77,15 +68,10 @@ class MissionWorker:
         self._task: asyncio.Task[None] | None = None
         self._lock = asyncio.Lock()
         self._sensor_names: list[str] | None = None
-        # Every report of the last missions, re-sent on request to a planner that missed some.
-        # ... also on disk with a state folder, and read back after a restart.
+        # Every report of the last missions, numbered, re-sent on request to a planner that
+        # missed some; on disk too with a state folder (drone/report_history.py).
         state_dir = self.config.state_dir
-        self.store = ReportStore(state_dir / "reports.db" if state_dir is not None else None)
-        self.history: OrderedDict[str, list[MissionProgress]] = self.store.load(HISTORY_MISSIONS)
-        # mission id -> reports numbered (MissionProgress.seq)
-        self._numbered = {m: max(p.seq or 0 for p in kept) for m, kept in self.history.items()}
-        self.interrupted = interrupted(self.history)  # running when the software stopped
-        self._replayed: dict[str, float] = {}  # mission id -> vehicle time of its last replay
+        self.reports = ReportHistory(self.clock, state_dir / "reports.db" if state_dir else None)
         self._steps: list[tuple[int, Any]] = []  # the mission's steps, with their indices
         self._done: set[int] = set()  # indices of its steps reported done
         self.paused: Paused | None = None  # a mission someone else took the vehicle from
@@ -101,7 +87,7 @@ class MissionWorker:
         await self._cancel_current()
         await self.outbox.drain(timeout_s=2.0)  # the last reports, if the broker is there
         await self.outbox.close()
-        self.store.close()
+        self.reports.close()
 
     @property
     def running(self) -> bool:
@@ -441,20 +427,7 @@ class MissionWorker:
         request that never became a mission)."""
         if progress.event is ProgressEvent.STEP and progress.mission_id == self.mission_id:
             self._done.add(progress.step_index if progress.step_index is not None else -1)
-        if progress.mission_id and progress.event is not ProgressEvent.REJECTED:
-            kept = self.history.setdefault(progress.mission_id, [])
-            seq = self._numbered[progress.mission_id] = (
-                self._numbered.get(progress.mission_id, 0) + 1
-            )
-            progress.seq = seq  # the ground asks again for a gap in these (planner/progress.py)
-            self.store.add(progress)  # on disk before it is sent
-            kept.append(progress)
-            del kept[:-REPORTS_PER_MISSION]
-            self.history.move_to_end(progress.mission_id)
-            if len(self.history) > HISTORY_MISSIONS:
-                while len(self.history) > HISTORY_MISSIONS:
-                    self._numbered.pop(self.history.popitem(last=False)[0], None)
-                self.store.forget_all_but(list(self.history))
+        self.reports.keep(progress)  # numbered; the ground asks again for a gap in them
         topic_name = self.controller.topic(Channel.MISSION)
         if progress.event is ProgressEvent.REJECTED:
             # An answer to a request that never became a mission (junk, or a report of a leg it
@@ -467,14 +440,9 @@ class MissionWorker:
 
     async def _replay(self, mission_id: str, request_id: str | None) -> None:
         """Re-send every report of ``mission_id``, in order; readers drop the duplicates."""
-        now = self.clock.now()
-        last = self._replayed.get(mission_id)
-        if last is not None and now - last < REPLAY_GAP_S:
+        kept = self.reports.replay(mission_id)
+        if kept is None:
             return  # just re-sent: a burst of requests gets one replay
-        self._replayed[mission_id] = now
-        while len(self._replayed) > HISTORY_MISSIONS:
-            self._replayed.pop(next(iter(self._replayed)))
-        kept = list(self.history.get(mission_id, []))
         if not kept:
             await self._report(
                 ProgressEvent.REJECTED,
@@ -486,7 +454,9 @@ class MissionWorker:
             return
         for progress in kept:
             self.outbox.post(self.controller.topic(Channel.MISSION), progress)
-        if mission_id in self.interrupted:  # after its reports, in order: the rest is not flown
+        if (
+            mission_id in self.reports.interrupted
+        ):  # after its reports, in order: the rest is not flown
             fc = self.controller.fc
             said = MissionProgress(
                 drone_id=self.controller.drone_id,

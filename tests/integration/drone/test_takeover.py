@@ -87,7 +87,13 @@ async def test_a_vehicle_landed_by_someone_else_stays_paused_until_stopped(embed
 async def test_the_autopilots_battery_failsafe_pauses_the_mission_and_says_so(embedded_broker):
     async with SimFleet(speedup=50) as fleet, Operator(embedded_broker) as op:
         await fleet.add_drone(
-            DroneConfig(drone_id="QUAD_B", battery_critical_pct=1.0),
+            # The drone's own battery levels below the autopilot's 5 % failsafe: it acts first.
+            DroneConfig(
+                drone_id="QUAD_B",
+                battery_critical_pct=1.0,
+                battery_rtl_pct=1.0,
+                battery_land_pct=0.5,
+            ),
             embedded_broker,
             home=HOME,
             battery_pct=8.0,
