@@ -293,3 +293,25 @@ def test_the_planner_refuses_a_mission_that_leaves_its_geofence(open_page, demo)
     expect(page.locator("#estimate-table")).to_be_visible()
     # The browser logs the refusal's 422 itself; nothing else may fail.
     assert all("status of 422" in e for e in console.errors), console.errors
+
+
+def test_shift_escape_aborts_every_mission_from_any_page(open_page, demo):
+    here = get(demo, "/drones/QUAD_1")["position"]
+    steps = [{"command": "navigate", "lat": here["lat"] + 40 / M_PER_DEG, "lon": here["lon"],
+              "altitude_delta": 10}, {"command": "wait_for_flight"}]  # fmt: skip
+    for _ in range(60):  # QUAD_1 may still be coming home from an earlier test
+        status, answer = post_for(demo, "/missions?start=true", {"drones": ["QUAD_1"],
+                                                                 "steps": steps})  # fmt: skip
+        if status != 409:
+            break
+        time.sleep(1.0)
+    assert status == 201, answer
+    mission = json.loads(answer)["mission_id"]
+    page, console = open_page("fleet")
+    asked: list[str] = []
+    page.on("dialog", lambda d: (asked.append(d.message), d.accept()))
+    page.keyboard.press("Shift+Escape")
+    expect(page.locator(".toast").last).to_contain_text("aborted")
+    assert asked and asked[0].startswith("Abort every mission?"), asked
+    assert get(demo, f"/missions/{mission}")["state"] == "stopped"
+    console.assert_clean()

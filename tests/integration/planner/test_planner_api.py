@@ -274,3 +274,17 @@ async def test_an_operator_pauses_a_mission_its_drone_holds_and_resume_finishes_
     assert (await op.post(f"/api/v1/missions/{mission_id}/resume")).status_code == 200
     done = await until_state(op, mission_id, {"completed", "failed", "stopped"}, timeout_s=120)
     assert done["state"] == "completed" and done["steps_done"] == done["steps"], done
+
+
+async def test_abort_all_stops_every_unfinished_mission_and_sends_its_drones_home(platform):
+    op, view = platform
+    r = await op.post(
+        "/api/v1/missions", params={"start": "true"}, json={"drones": ["FULL"], "area": area()}
+    )
+    mission_id = r.json()["mission_id"]
+    await until_state(op, mission_id, {"running"})
+    assert (await view.post("/api/v1/missions/abort")).status_code == 403
+    aborted = await op.post("/api/v1/missions/abort")
+    assert aborted.status_code == 200, aborted.text
+    assert [(m["mission_id"], m["state"]) for m in aborted.json()] == [(mission_id, "stopped")]
+    assert (await op.post("/api/v1/missions/abort")).json() == []  # nothing left to abort

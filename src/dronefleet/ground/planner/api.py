@@ -115,6 +115,17 @@ async def stop(request: Request, mission_id: str, who: Operator) -> MissionSumma
 
 
 @router.post(
+    "/missions/abort",
+    summary="Abort every unfinished mission: all their drones stop and return home (RTL)",
+)
+async def abort_all(request: Request, who: Operator) -> list[MissionSummary]:
+    planner = planner_of(request)
+    call = planner.abort_all()
+    records = await _guard(request, who, "mission.abort_all", {}, call)
+    return [MissionSummary.model_validate(r.summary()) for r in records]
+
+
+@router.post(
     "/missions/{mission_id}/abort",
     summary="Abort a mission: its drones stop and return home (RTL)",
     responses=PLANNING,

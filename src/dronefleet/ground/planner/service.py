@@ -271,6 +271,11 @@ class MissionPlanner:
             await self._finish(record, MissionState.STOPPED, why)
             return record
 
+    async def abort_all(self) -> list[MissionRecord]:
+        """Abort every unfinished mission (its drones sent home); the missions aborted."""
+        unfinished = [r.mission_id for r in list(self.missions.values()) if not r.terminal]
+        return [await self.stop_mission(mission_id, home=True) for mission_id in unfinished]
+
     async def pause_mission(self, mission_id: str) -> MissionRecord:
         """Ask each drone of a running mission to hold and keep its steps left (each answers
         ``paused``; the mission is then paused until resumed)."""

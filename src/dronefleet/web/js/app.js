@@ -33,6 +33,20 @@ function onMessage(msg) {
   for (const fn of ctx.listeners) fn(msg);
 }
 
+// Abort all, from any page (issue 14): Shift+Escape, asked first; every unfinished mission is
+// stopped and its drones come home.
+document.addEventListener("keydown", async (e) => {
+  if (e.key !== "Escape" || !e.shiftKey || !ctx.me || !ctx.me.can_command) return;
+  e.preventDefault();
+  if (!window.confirm("Abort every mission? All their drones stop and return home.")) return;
+  try {
+    const aborted = await api("/missions/abort", { method: "POST" });
+    toast(`aborted ${aborted.length} mission(s): their drones are going home`);
+  } catch (err) {
+    toast(`abort all failed: ${err.message}`, "error");
+  }
+});
+
 function setLink(state) {
   const node = document.getElementById("link-state");
   node.textContent = state === "live" ? "live" : state;
