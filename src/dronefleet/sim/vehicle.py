@@ -88,6 +88,8 @@ class SimVehicle:
         self._kin = Kinematics()
         self._phase = _Phase.GROUND
         self._target: tuple[float, float, float] | None = None
+        # A velocity target (north, east, down m/s) and until when it holds (vehicle s).
+        self._velocity: tuple[float, float, float, float] | None = None
         self._armed = False
         self._arming_since: float | None = None
         self._reboot_until: float | None = None
@@ -111,7 +113,17 @@ class SimVehicle:
             self._armed = True
             log.info("%s: armed", self.vehicle_id)
         k, wind, phase = self._kin, self.wind, self._phase
-        if phase is _Phase.FLYING or phase is _Phase.LANDING:
+        if phase is _Phase.FLYING and self._velocity is not None:
+            *want, until = self._velocity
+            if self._t >= until - _EPS_S:  # no new target in time: brake and hold there
+                self._velocity, self._target = None, k.stop_point(self.limits)
+            else:
+                k.fly_velocity((want[0], want[1], want[2]), dt_s, self.limits, wind.n_mps,
+                               wind.e_mps)  # fmt: skip
+                self._target = (k.n, k.e, k.d)
+            airspeed = math.hypot(k.vn - wind.n_mps, k.ve - wind.e_mps)
+            current = self.battery.flight_current_a(airspeed, -k.vd, self.limits.max_speed_mps)
+        elif phase is _Phase.FLYING or phase is _Phase.LANDING:
             tn, te, td = self._target  # type: ignore[misc]
             k.fly_to(tn, te, td, dt_s, self.limits, wind.n_mps, wind.e_mps)
             airspeed = math.hypot(k.vn - wind.n_mps, k.ve - wind.e_mps)
@@ -135,6 +147,7 @@ class SimVehicle:
             self._yaw_deg = math.degrees(math.atan2(k.ve, k.vn)) % 360.0
 
     def _touchdown(self) -> None:
+        self._velocity = None
         self._kin.rest_on_ground()
         self._phase = _Phase.GROUND
         self._target = None
@@ -256,14 +269,26 @@ class SimVehicle:
     def _fly(self, mode: FlightMode) -> None:
         self._phase = _Phase.FLYING
         self._mode = mode
+        self._velocity = None  # any new target replaces a velocity target
+
+    def fly_velocity(self, velocity: NED, for_s: float) -> None:
+        """Fly at ``velocity`` (north, east, down m/s) for ``for_s`` vehicle seconds, then brake
+        and hold where it stops, unless a new target comes (ArduPilot's GUID_TIMEOUT)."""
+        if self._phase is not _Phase.FLYING:
+            raise VehicleError(f"{self.vehicle_id}: a velocity target needs the vehicle flying")
+        self._refuse_unless_can_fly()
+        self._fly(FlightMode.GUIDED)
+        self._velocity = (velocity.n, velocity.e, velocity.d, self._t + for_s)
 
     def _begin_landing(self) -> None:
+        self._velocity = None
         sn, se, _ = self._kin.stop_point(self.limits)
         self._target = (sn, se, 0.0)
         self._phase = _Phase.LANDING
         self._mode = FlightMode.LAND
 
     def _motors_off(self) -> None:
+        self._velocity = None
         self._armed, self._arming_since = False, None
         self._target = None
         self._phase = _Phase.FALLING

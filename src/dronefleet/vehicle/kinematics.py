@@ -112,6 +112,34 @@ class Kinematics:
         descent = limits.max_descent_mps if max_descent_mps is None else max_descent_mps
         self._vertical(target_d, dt_s, limits, descent)
 
+    def fly_velocity(
+        self,
+        want: tuple[float, float, float],
+        dt_s: float,
+        limits: FlightLimits,
+        wind_n: float = 0.0,
+        wind_e: float = 0.0,
+    ) -> None:
+        """One velocity-controller step towards ``want`` (north, east, down m/s), within the
+        acceleration and speed limits (a GUIDED velocity target)."""
+        vn, ve = limit_airspeed(want[0], want[1], wind_n, wind_e, limits.max_speed_mps)
+        a_step = limits.accel_mps2 * dt_s
+        dvn, dve = vn - self.vn, ve - self.ve
+        dv = math.hypot(dvn, dve)
+        if dv > a_step:
+            dvn, dve = dvn * a_step / dv, dve * a_step / dv
+        self.vn, self.ve = self.vn + dvn, self.ve + dve
+        self.an, self.ae = dvn / dt_s, dve / dt_s
+        self.n += self.vn * dt_s
+        self.e += self.ve * dt_s
+        vd = max(-limits.max_climb_mps, min(limits.max_descent_mps, want[2]))
+        dvd = max(-limits.accel_z_mps2 * dt_s, min(limits.accel_z_mps2 * dt_s, vd - self.vd))
+        self.vd += dvd
+        self.ad = dvd / dt_s
+        self.d += self.vd * dt_s
+        if self.d > 0.0:  # the ground stops it
+            self.d, self.vd, self.ad = 0.0, 0.0, 0.0
+
     def _horizontal(
         self, tn: float, te: float, dt: float, lim: FlightLimits, wind_n: float, wind_e: float
     ) -> None:

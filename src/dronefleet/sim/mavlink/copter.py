@@ -208,6 +208,19 @@ class SimCopter:
         except VehicleError as exc:
             raise CommandRefused("Guided: " + _reason(exc, v)) from None
 
+    def guided_velocity(self, velocity: NED) -> None:
+        """A GUIDED velocity target: flown for GUID_TIMEOUT seconds unless renewed, then the
+        vehicle brakes and holds (ArduCopter/mode_guided.cpp's velocity timeout)."""
+        v = self.vehicle
+        if self.mode is not CopterMode.GUIDED:
+            raise CommandRefused(f"Guided: not in GUIDED mode (in {self.mode.name})")
+        if not v.in_air or v.relative_alt_m < _LIFTOFF_M:
+            raise CommandRefused("Guided: take off before a velocity target")
+        try:
+            v.fly_velocity(velocity, float(self.params.get("GUID_TIMEOUT")))
+        except VehicleError as exc:
+            raise CommandRefused("Guided: " + _reason(exc, v)) from None
+
     def reboot(self, force: bool) -> None:
         v = self.vehicle
         if v.armed and not force:

@@ -114,8 +114,11 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         elif kind == "SET_MODE":
             result, reason = self.commands.set_mode_message(msg)
             self._answer(mav.MAV_CMD_DO_SET_MODE, result, reason, msg)
-        elif kind == "SET_POSITION_TARGET_GLOBAL_INT":
-            reason = self.commands.position_target(msg)
+        elif kind in ("SET_POSITION_TARGET_GLOBAL_INT", "SET_POSITION_TARGET_LOCAL_NED"):
+            if kind == "SET_POSITION_TARGET_GLOBAL_INT":
+                reason = self.commands.position_target(msg)
+            else:
+                reason = self.commands.local_target(msg)
             if reason:
                 self.statustext(mav.MAV_SEVERITY_WARNING, reason)
             else:

@@ -27,6 +27,9 @@ FORCE_ARM = 2989
 FORCE_DISARM = 21196
 FORCE_REBOOT = 20190226
 _IGNORE_POSITION = 0b111  # type_mask bits: x, y, z ignored
+_IGNORE_VELOCITY = 0b111000  # vx, vy, vz ignored
+_BODY_FRAMES = frozenset({mav.MAV_FRAME_BODY_NED, mav.MAV_FRAME_BODY_OFFSET_NED})
+_LOCAL_FRAMES = frozenset({mav.MAV_FRAME_LOCAL_NED, mav.MAV_FRAME_LOCAL_OFFSET_NED, *_BODY_FRAMES})
 _ABSOLUTE_FRAMES = {mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_INT}
 
 Params = list[float]  # param1..param7 (param5/6 in degrees, param7 metres)
@@ -206,13 +209,46 @@ class CommandHandler:
             return exc.result, exc.reason
 
     def position_target(self, msg: Message) -> str | None:
-        """Fly to a SET_POSITION_TARGET_GLOBAL_INT target; returns the refusal, if any."""
-        if msg.type_mask & _IGNORE_POSITION:
-            return "Guided: only position targets are supported by the sim"
+        """Fly to a SET_POSITION_TARGET_GLOBAL_INT target (a position, else a velocity in
+        north-east-down); returns the refusal, if any."""
         try:
-            self.copter.guided_target(
-                self._ned(msg.lat_int / 1e7, msg.lon_int / 1e7, msg.alt, msg.coordinate_frame)
+            if not msg.type_mask & _IGNORE_POSITION:
+                self.copter.guided_target(
+                    self._ned(msg.lat_int / 1e7, msg.lon_int / 1e7, msg.alt, msg.coordinate_frame)
+                )
+            elif not msg.type_mask & _IGNORE_VELOCITY:
+                self.copter.guided_velocity(NED(msg.vx, msg.vy, msg.vz))
+            else:
+                return "Guided: the target has neither a position nor a velocity"
+        except CommandRefused as exc:
+            return exc.reason
+        return None
+
+    def local_target(self, msg: Message) -> str | None:
+        """SET_POSITION_TARGET_LOCAL_NED: a position (from home in MAV_FRAME_LOCAL_NED, from the
+        vehicle in the OFFSET and BODY frames) or, without one, a velocity; BODY frames turn
+        with the vehicle's heading (x forward, y right), as ArduCopter's GCS_Mavlink.cpp does."""
+        frame = msg.coordinate_frame
+        if frame not in _LOCAL_FRAMES:
+            return f"Guided: frame {frame} is not supported for local targets"
+        v = self.copter.vehicle
+        x, y = msg.x, msg.y
+        vx, vy = msg.vx, msg.vy
+        if frame in _BODY_FRAMES:
+            yaw = math.radians(v.attitude.yaw_deg)
+            x, y = x * math.cos(yaw) - y * math.sin(yaw), x * math.sin(yaw) + y * math.cos(yaw)
+            vx, vy = (
+                vx * math.cos(yaw) - vy * math.sin(yaw),
+                vx * math.sin(yaw) + vy * math.cos(yaw),
             )
+        try:
+            if not msg.type_mask & _IGNORE_POSITION:
+                here = v.position_ned if frame != mav.MAV_FRAME_LOCAL_NED else NED(0, 0, 0)
+                self.copter.guided_target(NED(here.n + x, here.e + y, here.d + msg.z))
+            elif not msg.type_mask & _IGNORE_VELOCITY:
+                self.copter.guided_velocity(NED(vx, vy, msg.vz))
+            else:
+                return "Guided: the target has neither a position nor a velocity"
         except CommandRefused as exc:
             return exc.reason
         return None
