@@ -10,6 +10,10 @@ $(STAMP): pyproject.toml constraints.txt
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip==26.3
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test]'
+	# MAVProxy, the second independent ground station of tests/integration/mavlink/independent,
+	# without the dependencies of its map, graph and 3-D modules (VTK, OpenCV, matplotlib: about
+	# 700 MB) that its console never loads.
+	$(BIN)/python -m pip install --quiet --no-deps MAVProxy==1.8.75
 	touch $(STAMP)
 
 system-deps:

@@ -2,11 +2,14 @@
 # Front-end libraries for the web apps (Leaflet, Chart.js), from npm by name, pinned in
 # package-lock.json. Their dist files are copied into src/dronefleet/web/vendor/ (git-ignored),
 # which the ground server serves under /vendor/. Idempotent and quick when already in place.
+# axe-core (a devDependency) stays in node_modules/: the browser tests put it into the page
+# themselves (tests/e2e/a11y.py), so the app never serves it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 vendor=src/dronefleet/web/vendor
 stamp="$vendor/.stamp"
-if [ -f "$stamp" ] && [ "$stamp" -nt package-lock.json ] && [ -f "$vendor/leaflet/leaflet.js" ]; then
+if [ -f "$stamp" ] && [ "$stamp" -nt package-lock.json ] && [ -f "$vendor/leaflet/leaflet.js" ] \
+  && [ -f node_modules/axe-core/axe.min.js ]; then
   exit 0
 fi
 if ! command -v npm >/dev/null 2>&1; then

@@ -16,6 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from dronefleet import virtual_loop
+from dronefleet.cli.args import geocoder_url, tiles_source
+from dronefleet.errors import InvalidInput
 from dronefleet.geo.types import NED
 from dronefleet.signals import stop_event
 
@@ -47,7 +49,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--state-dir", type=Path, default=Path("var/demo"), help="databases, logs and tokens"
     )
-    p.add_argument("--tiles", help="map tile URL template; none: an offline grid is drawn")
+    p.add_argument(
+        "--tiles",
+        type=tiles_source,
+        help="map imagery: a tile URL template or a local FILE.mbtiles; none: a plain grid",
+    )
+    p.add_argument(
+        "--geocoder",
+        type=geocoder_url,
+        help="a Nominatim-compatible geocoder's URL for address search (asked by the ground)",
+    )
     p.add_argument("--token", help="use this operator token instead of a fresh one")
     p.add_argument("--no-mission", action="store_true", help="do not fly the demo mission")
     p.add_argument(
@@ -72,6 +83,9 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"dronefleet demo: {exc}", file=sys.stderr)
         return 1
+    except InvalidInput as exc:  # e.g. --tiles names a file that is not a raster MBTiles set
+        print(f"dronefleet demo: {exc}", file=sys.stderr)
+        return 2
 
 
 #: Where the demo's CO2 plume is, from home (5,000 ppm at its centre, 15 m wide, at sea level).
@@ -169,10 +183,11 @@ async def _demo(args: argparse.Namespace) -> int:
             state_path=state_dir / "ground.db",
             http_host=host,
             http_port=port,
+            tiles=args.tiles,
+            geocoder=args.geocoder,
         )
         await ground.start()
         try:
-            ground.app.state.web_tiles = args.tiles
             assert ground.state is not None  # started above
             tokens = await _tokens(TokenBook(ground.state), state_dir, args.token)
             joining = _external_drones(broker, args.external_drone, state_dir)

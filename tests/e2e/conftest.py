@@ -8,6 +8,7 @@ browsers here, so it is pointed at ``/usr/bin/chromium``. Screenshots go to
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import socket
@@ -17,7 +18,7 @@ import threading
 import time
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -187,12 +188,10 @@ def open_page(browser, demo: Demo):
         options.setdefault("viewport", {"width": 1280, "height": 860})
         context = browser.new_context(**options)
         contexts.append(context)
-        context.add_init_script(
-            f"localStorage.setItem('dronefleet.token', {token or server.operator!r});"
-        )
         page = context.new_page()
         console = Console(page)
-        page.goto(f"{server.url}/#/{name}")
+        # The sign-in link the demo prints: the page trades the token for a session cookie.
+        page.goto(f"{server.url}/?token={token or server.operator}#/{name}")
         page.wait_for_selector("#link-state[data-state='live']", timeout=15_000)
         page.wait_for_selector(f"#page[data-mounted='{name}']", timeout=15_000)
         return page, console
@@ -261,3 +260,27 @@ def click_map(page, selector: str, offsets: list[tuple[int, int]]) -> None:
     for dx, dy in offsets:
         page.mouse.click(cx + dx, cy + dy)
         page.wait_for_timeout(150)  # not a double click
+
+
+def metres(a: dict, b: dict) -> float:
+    """Ground distance between two API positions (lat, lon), flat-earth: metres apart."""
+    dn = (a["lat"] - b["lat"]) * M_PER_DEG
+    de = (a["lon"] - b["lon"]) * M_PER_DEG * math.cos(math.radians(a["lat"]))
+    return math.hypot(dn, de)
+
+
+def wait_landed_at_home(demo, drones: Sequence[str], after: float, timeout_s: float = 60.0) -> None:
+    """Until each of ``drones`` reports itself disarmed within 3 m of home, in a heartbeat
+    newer than ``after`` (an API timestamp); fails naming where each one is."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        fleet = {d["drone_id"]: d for d in get(demo, "/drones")}
+        ends = {
+            d: (fleet[d]["state"], round(metres(fleet[d]["position"], fleet[d]["home"]), 1))
+            for d in drones
+        }
+        fresh = all(fleet[d]["last_seen"] > after for d in drones)
+        if fresh and all(state == "disarmed" and off_m < 3.0 for state, off_m in ends.values()):
+            return
+        assert time.monotonic() < deadline, f"not every drone down at home: {ends}"
+        time.sleep(1.0)

@@ -13,6 +13,7 @@ from datetime import UTC, datetime
 
 import pytest
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
+from playwright.sync_api import expect
 
 from .conftest import _dronefleet as _cli
 from .conftest import click_and_wait, click_map, get, start_process, stop_process
@@ -32,7 +33,11 @@ def test_an_area_drawn_in_the_planner_is_flown_to_completion(open_page, screensh
     click_and_wait(page, "#plan-preview", "#estimate-table tbody tr")
     assert "QUAD_1" in page.inner_text("#estimate-table")
     screenshot(page, "1-planner-preview")
-    click_and_wait(page, "#plan-send", "#mission-status[data-state]")
+    # Send shows the pre-flight checklist first; every check of QUAD_1 passes.
+    click_and_wait(page, "#plan-send", "#preflight[open] table[data-drone='QUAD_1']")
+    assert page.get_attribute("#preflight", "data-ok") == "true"
+    assert page.locator("#preflight td.status[data-status='fail']").count() == 0
+    click_and_wait(page, "#preflight-send", "#mission-status[data-state]")
     page.wait_for_selector("#mission-status[data-state='completed']", timeout=90_000)
     shared["mission"] = page.get_attribute("#mission-status", "data-mission")
     screenshot(page, "1-planner-completed")
@@ -80,6 +85,8 @@ def test_calling_from_a_phone_100_m_away_brings_a_drone(open_page, screenshot, d
     )
     click_and_wait(page, "#call-button", "#call-status[data-state='coming']")
     assert re.search(r"QUAD_\d is coming: \d+ m away, about \d", page.inner_text("#call-status"))
+    # The drone that comes has its panel: its figures and its own buttons (issue 14).
+    expect(page.locator("#call-panel[data-drone] [data-figure='gps']")).to_contain_text("3-D fix")
     screenshot(page, "3-call-coming")
     page.wait_for_selector("#call-status[data-state='arrived']", timeout=90_000)
     screenshot(page, "3-call-arrived")
@@ -102,12 +109,15 @@ def test_a_drone_whose_process_stops_is_shown_lost(open_page, screenshot, demo, 
             "#fleet-table tr[data-drone='LONE_1'][data-status='online']", timeout=30_000
         )
         screenshot(page, "4-fleet-online")
+        page.click("h1")  # the operator has touched the page: alarms may sound (issue 14)
     finally:
         stop_process(process)
     page.wait_for_selector(
         "#fleet-table tr[data-drone='LONE_1'][data-status='lost']", timeout=30_000
     )
     assert "LOST" in page.inner_text("#fleet-table tr[data-drone='LONE_1']")
+    expect(page.locator(".toast.error", has_text="drone LONE_1 lost")).to_be_visible()
+    assert int(page.get_attribute("#mute", "data-beeps")) >= 1  # a lost drone beeps
     assert page.locator(".drone-label", has_text="LONE_1 (lost)").count() == 1
     screenshot(page, "4-fleet-lost")
     console.assert_clean()

@@ -12,7 +12,7 @@ import time
 import pytest
 from playwright.sync_api import expect
 
-from .conftest import M_PER_DEG, click_map, get, post_for
+from .conftest import M_PER_DEG, click_map, get, post_for, wait_landed_at_home
 
 pytestmark = pytest.mark.e2e
 
@@ -79,14 +79,18 @@ def test_planner_three_clicks_make_a_parallelogram_and_overlap_sets_the_lines(op
 
 
 def test_planner_step_list_is_built_by_drag_and_drop_and_reordered_by_keyboard(open_page):
-    page, console = open_page("planner")
+    # Tall enough that the palette and the list need no scrolling: Playwright's drag scrolls the
+    # target into view between pressing and moving, and would then pick up another command.
+    page, console = open_page("planner", viewport={"width": 1280, "height": 1600})
     page.wait_for_selector(f"#plan-drone-{DRONE}")
     page.select_option("#plan-kind", "steps")
     step_list = page.locator("#step-list")
     step_list.wait_for()
 
-    def order() -> list[str]:
-        return page.locator("#step-list > li > strong").all_inner_texts()
+    def order() -> list[str]:  # the raw commands (each step shows a person's name too)
+        return page.locator("#step-list > li").evaluate_all(
+            "els => els.map(e => e.dataset.command)"
+        )
 
     def step(i: int):
         return page.locator(f"#step-list > li[data-index='{i}']")
@@ -313,5 +317,7 @@ def test_shift_escape_aborts_every_mission_from_any_page(open_page, demo):
     page.keyboard.press("Shift+Escape")
     expect(page.locator(".toast").last).to_contain_text("aborted")
     assert asked and asked[0].startswith("Abort every mission?"), asked
-    assert get(demo, f"/missions/{mission}")["state"] == "stopped"
+    record = get(demo, f"/missions/{mission}")
+    assert record["state"] == "stopped"
+    wait_landed_at_home(demo, ["QUAD_1"], after=record["ended_at"], timeout_s=90)
     console.assert_clean()

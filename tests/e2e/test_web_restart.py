@@ -29,7 +29,7 @@ def test_the_fleet_page_recovers_by_itself_when_the_server_restarts(open_page, t
     finally:
         first.stop()
     page.wait_for_function(
-        "document.getElementById('link-state').dataset.state !== 'live'", timeout=20_000
+        "() => document.getElementById('link-state').dataset.state !== 'live'", timeout=20_000
     )
     assert page.get_attribute("#link-state", "data-state") == "reconnecting"
     assert page.locator("#fleet-table tr[data-drone='QUAD_2']").count() == 0

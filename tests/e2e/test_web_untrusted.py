@@ -71,3 +71,28 @@ def test_the_content_security_policy_refuses_inline_script(open_page):
         }"""
     )
     assert page.evaluate("window.__inline") is None
+
+
+def test_the_page_keeps_no_token_an_injected_script_could_read(open_page, demo):
+    """Issue 12: the sign-in link's token is traded for an HttpOnly session and forgotten; what
+    page script can reach (storage, document.cookie, the address bar) holds no credential."""
+    page, console = open_page("fleet")
+    assert "token" not in page.url
+    reachable = page.evaluate(
+        """() => JSON.stringify([document.cookie, location.href, history.length,
+             Object.entries(localStorage), Object.entries(sessionStorage)])"""
+    )
+    assert demo.operator not in reachable
+    assert "dronefleet_session" not in reachable  # HttpOnly: not in document.cookie
+    # The session works for the page's own calls, without a token anywhere in them.
+    me = page.evaluate("async () => (await import('/web/js/api.js')).api('/web/me')")
+    assert me["role"] == "operator"
+    # Signing out ends it: the page asks for a token again and its calls are refused.
+    page.click("#logout")
+    page.wait_for_selector("#login[open]", timeout=15_000)
+    status = page.evaluate(
+        "async () => (await fetch('/api/v1/web/me', {credentials: 'same-origin'})).status"
+    )
+    assert status == 401
+    console.errors[:] = [e for e in console.errors if "401" not in e]
+    console.assert_clean()

@@ -129,3 +129,39 @@ async def test_requests_made_while_the_reply_subscription_is_pending_all_get_ans
         await subscribing.wait()
         second = await requester.request("Y/in", "Y/out", {"n": 2}, timeout_s=3)
         assert second["n"] == 2 and (await first)["n"] == 1
+
+
+async def test_a_message_received_but_not_yet_handled_is_delivered_again_after_a_crash(tmp_path):
+    """Nothing acknowledged is lost (messaging/acks.py): a persistent session acknowledges a
+    QoS 1 message once it is handled. The planner killed with an alarm received and unhandled
+    used to lose it (paho acknowledged on receipt); now the broker delivers it to the next run."""
+    with mosquitto(tmp_path) as url:
+        started, handled = asyncio.Event(), asyncio.Queue()
+
+        async def stuck(_topic: str, payload: bytes) -> None:
+            started.set()
+            await asyncio.Event().wait()  # killed before it is done with the message
+
+        first = BrokerClient(url, "planner-like", persistent_session=True)
+        await first.subscribe("QUAD_1/alarms/out", stuck)
+        await first.start()
+        async with BrokerClient(url, "drone") as drone:
+            await drone.publish("QUAD_1/alarms/out", b"CRITICAL", qos=1)
+            await asyncio.wait_for(started.wait(), 5)
+        await first.stop()  # its worker is cancelled mid-handling: no PUBACK was sent
+
+        again = BrokerClient(url, "planner-like", persistent_session=True)
+        await again.subscribe("QUAD_1/alarms/out", lambda t, p: handled.put(p))
+        await again.start()
+        try:
+            assert await asyncio.wait_for(handled.get(), 10) == b"CRITICAL"
+        finally:
+            await again.stop()
+        # Handled this time, so acknowledged: a third run gets nothing more.
+        third_got: asyncio.Queue = asyncio.Queue()
+        third = BrokerClient(url, "planner-like", persistent_session=True)
+        await third.subscribe("QUAD_1/alarms/out", lambda t, p: third_got.put(p))
+        await third.start()
+        await asyncio.sleep(1.0)
+        await third.stop()
+        assert third_got.empty()

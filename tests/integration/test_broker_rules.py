@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import os
 
 import aiomqtt
 import pytest
@@ -16,7 +17,7 @@ from dronefleet.messaging.broker_acl import mosquitto_files
 from dronefleet.messaging.broker_users import BrokerRole, BrokerUsers, check_password
 from dronefleet.messaging.embedded import EmbeddedBroker
 from dronefleet.messaging.url import BrokerUrl
-from support.brokers import mosquitto
+from support.brokers import MOSQUITTO, mosquitto, wait_port
 
 pytestmark = pytest.mark.integration
 
@@ -96,3 +97,47 @@ async def test_mosquitto_with_the_generated_files_holds_the_same_rules(tmp_path)
     extra = f"password_file {tmp_path / 'passwd'}\nacl_file {tmp_path / 'acl'}\n"
     with mosquitto(tmp_path, extra, anonymous=False) as url:
         await _rules_hold(url, creds)
+
+
+async def test_the_drones_own_mosquitto_from_bridge_config_refuses_strangers(tmp_path):
+    """``bridge-config --listener`` writes the drone's whole Mosquitto: no anonymous client even
+    on loopback; the drone's parts log in as the drone and keep to its topics."""
+    import subprocess
+
+    from dronefleet.messaging.embedded import free_port
+    from support.processes import dronefleet
+
+    secret = tmp_path / "QUAD_1.secret"
+    secret.write_text("drone-one-password\n")
+    port = free_port()
+    args = ("bridge-config", "--drone-id", "QUAD_1", "--ground", f"127.0.0.1:{free_port()}",
+            "--username", "QUAD_1", "--password-file", str(secret),
+            "--listener", f"127.0.0.1:{port}", "--local-dir", str(tmp_path / "drone"))  # fmt: skip
+    done = await asyncio.to_thread(
+        subprocess.run, dronefleet(*args), capture_output=True, text=True, check=True
+    )
+    config = tmp_path / "drone.conf"
+    # As root Mosquitto would drop to its own user, which cannot read the 0600 files.
+    user = "user root\n" if os.geteuid() == 0 else ""
+    config.write_text(done.stdout + f"persistence false\n{user}log_dest file {tmp_path}/m.log\n")
+    for name in ("passwords", "acl"):
+        assert (tmp_path / "drone" / name).stat().st_mode & 0o777 == 0o600
+    assert "drone-one-password" not in (tmp_path / "drone" / "passwords").read_text()
+    proc = await asyncio.create_subprocess_exec(MOSQUITTO, "-c", str(config))
+    try:
+        await asyncio.to_thread(wait_port, "127.0.0.1", port)
+        url = BrokerUrl("127.0.0.1", port)
+        with pytest.raises(aiomqtt.MqttError):
+            async with connect(url) as anonymous:
+                await anonymous.publish("QUAD_1/control/in", b'{"command":"takeoff"}')
+        me = {"username": "QUAD_1", "password": "drone-one-password"}
+        async with connect(url, **me) as worker, connect(url, **me) as controller:
+            await controller.subscribe("QUAD_1/control/in", qos=1)
+            await worker.subscribe("QUAD_2/#", qos=1)  # refused by the ACL: hears nothing
+            await worker.publish("QUAD_2/control/in", b"not mine", qos=1)
+            await worker.publish("QUAD_1/control/in", b"mine", qos=1)
+            assert await heard(controller) == [("QUAD_1/control/in", b"mine")]
+            assert await heard(worker, 0.5) == []
+    finally:
+        proc.terminate()
+        await proc.wait()

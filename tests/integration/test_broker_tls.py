@@ -105,3 +105,37 @@ async def test_a_drone_bridged_over_tls_is_heard_at_the_ground(tls_broker, tmp_p
 
 def _output(cmd: list[str]) -> str:
     return subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
+
+
+async def test_a_broker_that_asks_for_client_certificates_takes_ours(tmp_path):
+    """``mqtts://…?cafile=…&certfile=…&keyfile=…``: with Mosquitto's require_certificate, a
+    client with a certificate from the fleet's CA talks; one without gets nowhere."""
+    ca = trustme.CA()
+    server = ca.issue_cert("127.0.0.1")
+    client_cert = ca.issue_cert("quad-t.fleet.example")
+    ca.cert_pem.write_to_path(str(tmp_path / "ca.pem"))
+    server.private_key_pem.write_to_path(str(tmp_path / "server.key"))
+    server.cert_chain_pems[0].write_to_path(str(tmp_path / "server.pem"))
+    client_cert.private_key_pem.write_to_path(str(tmp_path / "client.key"))
+    client_cert.cert_chain_pems[0].write_to_path(str(tmp_path / "client.pem"))
+    tls = (
+        f"cafile {tmp_path / 'ca.pem'}\ncertfile {tmp_path / 'server.pem'}\n"
+        f"keyfile {tmp_path / 'server.key'}\nrequire_certificate true\n"
+    )
+    broker = Mosquitto(tmp_path, extra_conf=tls)
+    broker.start()
+    try:
+        base = f"mqtts://127.0.0.1:{broker.port}?cafile={tmp_path / 'ca.pem'}"
+        with_cert = BrokerUrl.parse(
+            f"{base}&certfile={tmp_path / 'client.pem'}&keyfile={tmp_path / 'client.key'}"
+        )
+        assert BrokerUrl.parse(with_cert.full()) == with_cert
+        client = await BrokerClient(with_cert, "tls-cert").start(timeout_s=10)
+        assert await client.publish("QUAD_T/heartbeats/out", {"hello": "cert"}, timeout_s=5)
+        await client.stop()
+        stranger = BrokerClient(BrokerUrl.parse(base), "tls-no-cert")
+        with pytest.raises(BrokerUnavailable):
+            await stranger.start(timeout_s=3)
+        await stranger.stop()
+    finally:
+        broker.stop()

@@ -33,6 +33,9 @@ def said(stderr: str) -> list[str]:
         (("demo", "--speedup", "-1"), "must be positive"),
         (("drone", "--speedup", "-1"), "must be a positive number"),
         (("demo", "--state-dir", "/etc/hostname/var"), "Not a directory"),
+        (("ground", "--tiles", "/nonexistent/field.mbtiles"), "no readable MBTiles file"),
+        (("demo", "--tiles", "https://tiles.example/{z}/{x}.png"), "needs {y}"),
+        (("ground", "--geocoder", "nominatim.example"), "expected an http(s) URL"),
     ],
 )
 def test_a_mistake_is_one_line_and_exit_2(args, reason):
@@ -41,6 +44,22 @@ def test_a_mistake_is_one_line_and_exit_2(args, reason):
     assert "Traceback" not in stderr
     (line,) = said(stderr)
     assert reason in line
+
+
+def test_a_file_that_is_not_mbtiles_is_one_line_and_exit_2(tmp_path):
+    (tmp_path / "field.mbtiles").write_bytes(b"not a database" * 100)
+    code, stderr = run(
+        "demo",
+        "--state-dir",
+        str(tmp_path),
+        "--http",
+        "127.0.0.1:0",
+        "--tiles",
+        str(tmp_path / "field.mbtiles"),
+    )
+    assert code == 2 and "Traceback" not in stderr, stderr
+    (line,) = said(stderr)
+    assert "is not an MBTiles file" in line
 
 
 def test_a_port_in_use_is_one_line_and_exit_2(tmp_path, mosquitto_broker):

@@ -73,6 +73,10 @@ class Mosquitto:
             [MOSQUITTO, "-c", str(self.conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
         )
         wait_port("127.0.0.1", self.port)
+        time.sleep(0.05)
+        if self.proc.poll() is not None:  # another process took the port (a restart, say)
+            error = self.proc.stderr.read().decode() if self.proc.stderr else ""
+            raise RuntimeError(f"mosquitto on port {self.port} exited: {error.strip()}")
         return self.url
 
     def stop(self, *, kill: bool = False) -> None:

@@ -9,11 +9,13 @@ from __future__ import annotations
 from typing import Any
 
 from dronefleet.experiments import scenarios
-from dronefleet.experiments.harness import Harness
+from dronefleet.experiments.harness import ORIGIN, Harness
 from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area
+from dronefleet.ground.planner.estimate import estimate
 from dronefleet.ground.planner.options import MissionOptions
+from dronefleet.ground.planner.units import units
 
 
 def small_field_steps(alarm: str | None = None) -> list[dict[str, Any]]:
@@ -44,3 +46,22 @@ async def fly_with_a_spare(
     spec = launch.MissionSpec(name="faults", drones=["QUAD_A"], steps=steps, options=options)
     record = await launch.create(h.planner, spec, start=True)
     return record.mission_id
+
+
+async def fly_early_handover(h: Harness, options: MissionOptions) -> Any:
+    """QUAD_A, hovering at 10 m with battery for about 13 of the field's units and its way home,
+    flies the whole field; QUAD_B idles beyond it, so the planner hands the rest over early.
+    The record once the mission has ended and the drones had 30 vehicle s more to land."""
+    steps = small_field_steps()  # the field lies 17 to 77 m north, 0 to 30 m east
+    first13 = [steps[i] for g in units(steps)[:13] for i in g]
+    used = estimate(first13, start=ORIGIN, home=ORIGIN, airborne=True).battery_used_pct
+    battery = h.planner.reserve_pct + used + 3.0
+    await h.add_drone("QUAD_A", NED(0, 0), hovering_m=10, battery_pct=battery)
+    await h.add_drone("QUAD_B", NED(77, 70))
+    await h.wait_identified(["QUAD_A", "QUAD_B"])
+    await h.settle()
+    spec = launch.MissionSpec(name="early", drones=["QUAD_A"], steps=steps, options=options)
+    record = await launch.create(h.planner, spec, start=True)
+    record = await h.until_ended(record.mission_id, timeout_s=300)
+    await h.settle(30.0)
+    return record

@@ -40,6 +40,18 @@ def stop(proc: subprocess.Popen[bytes], sig_kill: bool = False) -> None:
         proc.wait()
 
 
+async def stop_async(proc: asyncio.subprocess.Process) -> None:
+    """Terminate an asyncio child process (if still running), killed after 10 s."""
+    if proc.returncode is not None:
+        return
+    proc.terminate()
+    try:
+        await asyncio.wait_for(proc.wait(), 10)
+    except TimeoutError:
+        proc.kill()
+        await proc.wait()
+
+
 @contextlib.asynccontextmanager
 async def dronefleet_process(
     *args: str, ready: str, timeout_s: float = 30.0
@@ -66,12 +78,21 @@ async def dronefleet_process(
         drain = asyncio.create_task(proc.stdout.read())
         yield proc, lines
     finally:
-        if proc.returncode is None:
-            proc.terminate()
-            try:
-                await asyncio.wait_for(proc.wait(), 10)
-            except TimeoutError:
-                proc.kill()
-                await proc.wait()
+        await stop_async(proc)
         if drain is not None:
             drain.cancel()
+
+
+@contextlib.asynccontextmanager
+async def dronefleet_sim(
+    count: int, home: tuple[float, float, float], speedup: float = 5.0
+) -> AsyncIterator[int]:
+    """``dronefleet sim`` over MAVLink on free UDP ports; yields the first vehicle's port
+    (vehicle i answers on that port + i)."""
+    from dronefleet.experiments.fleets import free_udp_port
+
+    port = free_udp_port()
+    args = ("sim", "--count", str(count), "--speedup", str(speedup),
+            "--mavlink", f"udp:127.0.0.1:{port}", "--home", ",".join(map(str, home)))  # fmt: skip
+    async with dronefleet_process(*args, ready="sim ready"):
+        yield port

@@ -7,12 +7,15 @@ import asyncio
 import contextlib
 import sys
 from pathlib import Path
+from typing import Any
 
 from dronefleet.cli.args import (
     add_broker_password,
+    add_signing_key,
     broker_url,
     broker_with_password,
     positive_speedup,
+    signing_key,
 )
 from dronefleet.geo.types import LLA
 from dronefleet.signals import stop_event
@@ -49,6 +52,17 @@ def parse_plume(text: str) -> tuple[float, float, float, float]:
         raise argparse.ArgumentTypeError("expected LAT,LON,PEAK_PPM,RADIUS_M") from exc
 
 
+def parse_wind(text: str) -> tuple[float, float]:
+    """``SPEED@FROM``: metres a second and the bearing it blows from (``8@270``: 8 m/s westerly)."""
+    try:
+        speed, origin = (float(p) for p in text.split("@"))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError("expected SPEED_MPS@FROM_DEG, e.g. 8@270") from exc
+    if not (0 <= speed <= 50 and 0 <= origin <= 360):
+        raise argparse.ArgumentTypeError("wind speed 0-50 m/s, from 0-360 degrees")
+    return speed, origin
+
+
 def add_sim_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--home", type=parse_lla, default=parse_lla(DEFAULT_HOME), help="LAT,LON,ALT")
     p.add_argument(
@@ -57,6 +71,9 @@ def add_sim_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--battery-pct", type=float, default=100.0, help="initial charge (sim)")
     p.add_argument(
         "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"
+    )
+    p.add_argument(
+        "--wind", type=parse_wind, help="steady wind on the simulated vehicle: SPEED_MPS@FROM_DEG"
     )
 
 
@@ -82,6 +99,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--fc-url",
         help="autopilot link, e.g. udpout:127.0.0.1:14550 (mavlink) or tcp:127.0.0.1:9000",
     )
+    add_signing_key(p)
     add_sim_arguments(p)
     p.add_argument(
         "--onboard-missions",
@@ -153,8 +171,12 @@ def run(args: argparse.Namespace) -> int:
         config.sensor_bounds = dict(args.sensor_bound)
     try:
         args.broker = broker_with_password(args.broker, args.broker_password_file)
+        args.signing_key = signing_key(args.mavlink_signing_key_file)
     except (OSError, ValueError) as exc:
         print(f"dronefleet drone: {exc}", file=sys.stderr)
+        return 2
+    if args.signing_key is not None and args.fc != "mavlink":
+        print("dronefleet drone: MAVLink signing needs --fc mavlink", file=sys.stderr)
         return 2
     return asyncio.run(_serve(config, args))
 
@@ -163,13 +185,16 @@ async def _serve(config, args: argparse.Namespace) -> int:
     if args.fc != "sim":
         return await _serve_autopilot(config, args)
     from dronefleet.messaging.client import BrokerUnavailable
+    from dronefleet.sim.wind import Wind
     from dronefleet.simfleet import SimFleet
 
     stop = stop_event()
+    # The world's own (calm) unless --wind gives this vehicle one.
+    wind: dict[str, Any] = {"wind": Wind.from_direction(*args.wind)} if args.wind else {}
     async with SimFleet(speedup=args.speedup, plumes=args.plume) as fleet:
         try:
             app = await fleet.add_drone(
-                config, args.broker, home=args.home, battery_pct=args.battery_pct
+                config, args.broker, home=args.home, battery_pct=args.battery_pct, **wind
             )
         except BrokerUnavailable as exc:
             print(f"dronefleet drone: {exc}", file=sys.stderr)
@@ -196,7 +221,8 @@ async def _serve_autopilot(config, args: argparse.Namespace) -> int:
     delay_s = 1.0
     while True:
         try:
-            fc, sensors, camera = await open_flight_controller(args.fc, args.fc_url)
+            options = {"signing_key": args.signing_key} if args.signing_key else {}
+            fc, sensors, camera = await open_flight_controller(args.fc, args.fc_url, **options)
             break
         except (BackendUnavailable, FcError, OSError, TimeoutError) as exc:
             print(

@@ -11,8 +11,10 @@ from dronefleet.cli.args import (
     add_broker_password,
     broker_url,
     broker_with_password,
+    geocoder_url,
     port_number,
     positive_speedup,
+    tiles_source,
 )
 from dronefleet.signals import stop_event
 
@@ -53,6 +55,23 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="wall seconds at least without a heartbeat before a drone is lost (and its work "
         "taken over, or its mission stalled): 3 heartbeat intervals, never less than this",
     )
+    g.add_argument(
+        "--tiles",
+        type=tiles_source,
+        help="map imagery for the web maps: a tile URL template or a local FILE.mbtiles "
+        "(none: a plain grid)",
+    )
+    g.add_argument(
+        "--geocoder",
+        type=geocoder_url,
+        help="a Nominatim-compatible geocoder's URL for address search on the maps "
+        "(asked by the ground, never by the pages)",
+    )
+    g.add_argument(
+        "--photo-dir",
+        type=Path,
+        help="where the drones' pictures are kept per mission (default: photos/ beside --state)",
+    )
     g.set_defaults(func=run_ground)
 
     b = sub.add_parser(
@@ -66,14 +85,45 @@ def register(sub: argparse._SubParsersAction) -> None:
     b.add_argument(
         "--cafile", type=Path, help="TLS to the ground broker: the CA that signed its certificate"
     )
-    b.add_argument("--listener", type=_host_port, help="also write a listener: a whole config")
+    b.add_argument(
+        "--listener",
+        type=_host_port,
+        help="also write the drone broker's loopback listener (a whole config); needs --local-dir",
+    )
+    b.add_argument(
+        "--local-dir",
+        type=Path,
+        help="with --listener: write the drone broker's password and ACL files here (0600); "
+        "the drone's parts log in as --username with the password of --password-file",
+    )
     b.set_defaults(func=run_bridge_config)
+
+
+def _drone_broker_users(args: argparse.Namespace) -> tuple[str, str] | None:
+    """With ``--listener``: the drone broker's password and ACL files, written (0600)."""
+    from dronefleet.messaging.bridge import drone_broker_files
+
+    if args.listener is None:
+        return None
+    if args.local_dir is None or args.password_file is None:
+        raise ValueError("--listener needs --local-dir and --password-file (no anonymous access)")
+    if args.username not in (None, args.drone_id):
+        raise ValueError("on the drone's own broker the user is the drone: --username DRONE_ID")
+    passwords, acl = drone_broker_files(args.drone_id, args.password_file.read_text().strip())
+    args.local_dir.mkdir(parents=True, exist_ok=True)
+    paths = (args.local_dir / "passwords", args.local_dir / "acl")
+    for path, text in zip(paths, (passwords, acl), strict=True):
+        path.touch(mode=0o600, exist_ok=True)
+        path.chmod(0o600)
+        path.write_text(text)
+    return str(paths[0].resolve()), str(paths[1].resolve())
 
 
 def run_bridge_config(args: argparse.Namespace) -> int:
     from dronefleet.messaging.bridge import bridge_config
 
     try:
+        local_users = _drone_broker_users(args)
         text = bridge_config(
             args.drone_id,
             args.ground[0],
@@ -82,6 +132,7 @@ def run_bridge_config(args: argparse.Namespace) -> int:
             password=args.password_file.read_text().strip() if args.password_file else None,
             connection=args.connection,
             listener=args.listener,
+            local_users=local_users,
             cafile=str(args.cafile.resolve()) if args.cafile else None,
         )
     except (OSError, ValueError) as exc:
@@ -101,6 +152,7 @@ def run_ground(args: argparse.Namespace) -> int:
 
 
 async def _ground(args: argparse.Namespace) -> int:
+    from dronefleet.errors import InvalidInput
     from dronefleet.ground.presence import GroundAlreadyRunning
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.client import BrokerUnavailable
@@ -116,10 +168,13 @@ async def _ground(args: argparse.Namespace) -> int:
         command_timeout_s=args.command_timeout,
         planning_budget_s=args.planning_budget,
         lost_after_s=args.lost_after,
+        tiles=args.tiles,
+        geocoder=args.geocoder,
+        photo_dir=args.photo_dir,
     )
     try:
         await services.start()
-    except (GroundAlreadyRunning, BrokerUnavailable, OSError, ValueError) as exc:
+    except (GroundAlreadyRunning, BrokerUnavailable, OSError, ValueError, InvalidInput) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
         print(f"dronefleet ground: {reason}", file=sys.stderr)
         return 2

@@ -14,7 +14,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from dronefleet.cli.args import port_number, positive_speedup
+from dronefleet.cli.args import add_signing_key, port_number, positive_speedup, signing_key
 from dronefleet.cli.drone import DEFAULT_HOME, parse_lla, parse_plume
 from dronefleet.signals import stop_event
 
@@ -55,6 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--plume", type=parse_plume, action="append", default=[], help="LAT,LON,PEAK_PPM,RADIUS_M"
     )
     p.add_argument("--pictures", type=Path, help="write each picture taken as a JPEG here")
+    add_signing_key(p)
     p.add_argument(
         "--uavtalk",
         metavar="tcp:HOST:PORT",
@@ -89,6 +90,11 @@ def _run(args: argparse.Namespace) -> int:
             asyncio.run(serve_uavtalk(args))
         return 0
     try:
+        args.signing_key = signing_key(args.mavlink_signing_key_file)
+    except (OSError, ValueError) as exc:
+        print(f"dronefleet sim: the MAVLink signing key: {exc}", file=sys.stderr)
+        return 2
+    try:
         return asyncio.run(_serve(args))
     except OSError as exc:
         print(f"dronefleet sim: cannot open the MAVLink ports: {exc}", file=sys.stderr)
@@ -110,6 +116,7 @@ async def _serve(args: argparse.Namespace) -> int:
         first_system_id=args.sysid_base,
         plumes=args.plume,
         pictures_dir=args.pictures,
+        signing_key=args.signing_key,
     )
     stop = stop_event()
     async with server:
@@ -122,7 +129,7 @@ async def _serve(args: argparse.Namespace) -> int:
             )
         print(
             f"sim ready: {args.count} vehicle(s) over MAVLink from udp:{host}:{base_port}"
-            f" at {args.speedup:g}x",
+            f" at {args.speedup:g}x" + (", signed" if args.signing_key else ""),
             flush=True,
         )
         await stop.wait()

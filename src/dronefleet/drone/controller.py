@@ -31,7 +31,14 @@ from dronefleet.messaging.commands import Command, CommandResponse, parse_contro
 from dronefleet.messaging.gear import GearQuery, GearRequest
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
-from dronefleet.messaging.status import BatteryStatus, FlightParams, Heartbeat, Telemetry
+from dronefleet.messaging.status import (
+    BatteryStatus,
+    FlightParams,
+    GpsStatus,
+    Heartbeat,
+    Telemetry,
+    WindStatus,
+)
 from dronefleet.messaging.topics import Channel, Direction
 from dronefleet.vehicle.base import FcError, FlightController
 
@@ -161,8 +168,13 @@ class DroneController:
                 await nav.land()
                 return {"landing": True}
             case Command.RTL:
-                home = await nav.return_to_launch()
-                return {"returning": True, "home": {"lat": home.lat, "lon": home.lon}}
+                where = await nav.return_to_launch(rally=request.rally)
+                home = self.fc.home()
+                return {
+                    "returning": True,
+                    "home": {"lat": home.lat, "lon": home.lon},
+                    "lands_at": {"lat": where.lat, "lon": where.lon},  # a rally point, or home
+                }
             case Command.NAVIGATE:
                 return _target(await nav.navigate(request.lat, request.lon, request.altitude_delta))
             case Command.CHANGE_N:
@@ -229,7 +241,22 @@ class DroneController:
             # A companion computer outlives its autopilot link (issue 17): the ground is told.
             autopilot_link=bool(getattr(self.fc, "connected", True)),
             flight=self._flight_params(battery, state.in_air),
+            ground_speed_mps=round(self.fc.velocity().horizontal_m, 2),
+            **self._navigation_status(),
         )
+
+    def _navigation_status(self) -> dict[str, Any]:
+        """GPS fix and wind, for the ground's pre-flight checks: only what the backend reports
+        (a backend without a wind estimate sends none, and the ground says "unknown")."""
+        status: dict[str, Any] = {}
+        if (read_gps := getattr(self.fc, "gps", None)) is not None:
+            gps = read_gps()
+            status["gps"] = GpsStatus(fix=gps.fix, satellites=gps.satellites, hdop=gps.hdop)
+        if (read_wind := getattr(self.fc, "wind", None)) is not None and (wind := read_wind()):
+            status["wind"] = WindStatus(
+                speed_mps=round(wind.speed_mps, 2), from_deg=round(wind.from_deg % 360.0, 1)
+            )
+        return status
 
     def _flight_params(self, battery: Any, in_air: bool) -> FlightParams | None:
         """The vehicle's figures for the planner, with the current it draws in flight measured

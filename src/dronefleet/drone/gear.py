@@ -6,7 +6,8 @@ directory every few seconds so an edit shows up without a restart; a malformed f
 the last good content kept. It answers :class:`GearRequest` queries on ``<id>/gear/in`` with a
 :class:`GearReply` on ``<id>/gear/out``, and streams every sensor's readings as telemetry on
 ``<id>/telemetry/out`` (field ``<sensor>_<unit>``, e.g. ``co2_ppm``) for the Fail-safe System,
-the Logger and the ground's Telemetry Analyzer.
+the Logger and the ground's Telemetry Analyzer. The pictures the camera wrote are served to the
+ground a chunk at a time (``photo`` queries, drone/photo_files.py).
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.clock import Clock
+from dronefleet.drone.photo_files import PhotoFiles
+from dronefleet.errors import NotFound
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode, decode_object
@@ -151,6 +154,7 @@ class GearManager:
         self.clock = clock
         self.sensors: dict[str, Sensor] = dict(sensors or {})
         self.camera = camera
+        self.photos = PhotoFiles(drone_id)  # the pictures it took, served on request
         self.reread_s = reread_s
         self.sample_hz = sample_hz
         self._specs = _GearFile(SPECS_FILE, gear_dir, check_specs)
@@ -254,7 +258,16 @@ class GearManager:
             picture = self.camera.capture()
             if inspect.isawaitable(picture):  # an autopilot's camera confirms asynchronously
                 picture = await picture
+            self.photos.note(picture)
             return self._reply(rid, query, capture=dict(picture))
+        if request.query is GearQuery.PHOTO:  # the picture itself, for the ground (issue 14)
+            if not request.photo:
+                return self._reply(rid, query, error="name the picture: its capture's file")
+            try:
+                chunk = await self.photos.chunk(request.photo, request.offset)
+            except NotFound as exc:
+                return self._reply(rid, query, error=str(exc))
+            return self._reply(rid, query, photo=chunk)
         return self._reply(rid, query, error=f"unsupported gear query {query!r}")
 
     def _find_sensor(self, name: str | None) -> Sensor | str:

@@ -17,20 +17,19 @@ from collections import deque
 from typing import Any
 
 from dronefleet.clock import timestamp_s
-from dronefleet.drone import onboard
+from dronefleet.drone import onboard, step_actions
+from dronefleet.drone.autopilot_fence import AutopilotFence
 from dronefleet.drone.controller import CommandError, DroneController
-from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.outbox import Outbox
 from dronefleet.drone.report_history import ReportHistory
 from dronefleet.drone.state import position_of
+from dronefleet.drone.step_actions import StepFailed
 from dronefleet.drone.takeover import OPERATOR, POLL_S, Paused, Takeover
-from dronefleet.errors import Failed
 from dronefleet.messaging.client import QOS_COMMAND
-from dronefleet.messaging.codec import MessageError, decode, decode_object
+from dronefleet.messaging.codec import MessageError, decode_object
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import validate
-from dronefleet.messaging.fence import Geofence
-from dronefleet.messaging.gear import GearQuery
+from dronefleet.messaging.fence import Geofence, RallyPoint
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import (
     MissionAction,
@@ -38,8 +37,8 @@ from dronefleet.messaging.missions import (
     MissionRequest,
     ProgressEvent,
     decode_steps,
+    request_ids,
 )
-from dronefleet.messaging.status import Alarm
 from dronefleet.messaging.topics import Channel, Direction
 from dronefleet.tasks import cancel_and_wait
 from dronefleet.vehicle.base import FcError
@@ -48,10 +47,6 @@ log = logging.getLogger(__name__)
 _throttle = LogThrottle(
     log
 )  # one line per kind per 10 s: junk on the broker must not flood the log
-
-
-class StepFailed(Failed):
-    pass
 
 
 class MissionWorker:
@@ -67,7 +62,7 @@ class MissionWorker:
         self.mission_id: str | None = None
         self._task: asyncio.Task[None] | None = None
         self._lock = asyncio.Lock()
-        self._sensor_names: list[str] | None = None
+        self.sensors = step_actions.SensorReadings(controller)  # read_sensors steps
         # Every report of the last missions, numbered, re-sent on request to a planner that
         # missed some; on disk too with a state folder (drone/report_history.py).
         state_dir = self.config.state_dir
@@ -77,6 +72,9 @@ class MissionWorker:
         self.paused: Paused | None = None  # a mission someone else took the vehicle from
         self._asked: Takeover | None = None  # a pause asked for, for the running mission
         self.fence: Geofence | None = None  # the running mission's geofence
+        # The fence and rally points a MAVLink autopilot gets before a mission flies.
+        self.autopilot_fence = AutopilotFence(controller.fc)
+        self._for_autopilot: tuple[Geofence | None, list[RallyPoint]] | None = None
 
     async def start(self) -> None:
         await self.client.subscribe(
@@ -96,7 +94,7 @@ class MissionWorker:
     # -- mission/in --------------------------------------------------------------------------
     async def _on_mission(self, _topic: str, payload: bytes) -> None:
         started = time.perf_counter()
-        request_id, mission_id = _ids_of(payload)
+        request_id, mission_id = request_ids(payload)
         try:
             request = validate(MissionRequest, decode_object(payload))
             steps = decode_steps(request) if request.action is MissionAction.START else []
@@ -142,6 +140,9 @@ class MissionWorker:
             self.queue = deque(enumerate(steps, start=request.start_index))
             self._steps, self._done, self._asked = list(self.queue), set(), None
             self.fence = request.fence  # kept to in flight (drone/fence_guard.py)
+            navigation = self.controller.navigation  # where an early return may land instead
+            navigation.rally_points, navigation.fence = list(request.rally), request.fence
+            self._for_autopilot = (request.fence, list(request.rally))
             self.mission_id = mission_id
             self.controller.mission_id = mission_id
             await self._report(
@@ -281,8 +282,10 @@ class MissionWorker:
         mission_started = self.clock.now()
         trigger = self.controller.camera_trigger
         trigger.pictures = []
-        self._sensor_names = None
+        self.sensors.forget()
         steps = list(self.queue)
+        if not await self._fence_on_board(mission_id, count, steps):
+            return
         if await onboard.fly(self, mission_id, steps, count, onboard_requested):  # on board
             self.queue.clear()
             self._finish()
@@ -329,6 +332,29 @@ class MissionWorker:
         )
         self._finish()
 
+    async def _fence_on_board(self, mission_id: str, count: int, steps: list[Any]) -> bool:
+        """Put the new mission's fence and rally points on board the autopilot (MAVLink; not
+        again on a resume): False, the mission failed with the reason, when it would not."""
+        wanted, self._for_autopilot = self._for_autopilot, None
+        if wanted is None:
+            return True
+        try:
+            put = await self.autopilot_fence.prepare(*wanted)
+        except FcError as exc:
+            await self._report(
+                ProgressEvent.FAILED,
+                mission_id,
+                step_index=steps[0][0] if steps else None,
+                step_count=count,
+                ok=False,
+                error=f"not flown: {exc}",
+            )
+            self._finish()
+            return False
+        if put:
+            log.info("%s: on board the autopilot: %s", self.controller.drone_id, put)
+        return True
+
     def _finish(self) -> None:
         self.mission_id = None
         self.controller.mission_id = None
@@ -340,69 +366,19 @@ class MissionWorker:
             return await self.controller.execute(step)
         match step.command:
             case Command.WAIT_FOR_FLIGHT:
-                return await self._wait_for_flight(step)
+                return await step_actions.wait_for_flight(self.controller, step)
             case Command.SLEEP:
                 await self.clock.sleep(step.value)
                 return {"slept_s": step.value}
             case Command.VIRTUALALARM:
-                return await self._virtual_alarm(step)
+                return step_actions.virtual_alarm(
+                    self.controller, self.outbox, step, self.mission_id
+                )
             case Command.READ_SENSORS:
-                return await self._read_sensors(step)
+                return await self.sensors.read(step)
             case Command.CAMERA_TRIGGER:
                 return await self.controller.camera_trigger.set_distance(step.value)
         raise StepFailed(f"step command {step.command!r} is not supported")
-
-    async def _wait_for_flight(self, step: Any) -> dict[str, Any]:
-        tolerance = Tolerance(
-            step.horizontal_tolerance_m or self.config.horizontal_tolerance_m,
-            step.vertical_tolerance_m or self.config.vertical_tolerance_m,
-        )
-        nav = self.controller.navigation
-        deadline = None if step.timeout_s is None else self.clock.now() + step.timeout_s
-        while not nav.goal_reached(tolerance):
-            if deadline is not None and self.clock.now() >= deadline:
-                raise StepFailed(
-                    f"goal not reached within {step.timeout_s:g} s "
-                    f"({nav.distance_to_goal_m():.1f} m away)"
-                )
-            state = self.controller.fc.state()
-            if not state.armed and not state.arming:
-                raise StepFailed("vehicle disarmed while waiting for flight")
-            await self.clock.sleep(self.config.wait_poll_s)
-        return {"distance_m": round(nav.distance_to_goal_m(), 3)}
-
-    async def _virtual_alarm(self, step: Any) -> dict[str, Any]:
-        fc = self.controller.fc
-        alarm = Alarm(
-            drone_id=self.controller.drone_id,
-            level=step.level,
-            message=step.message or f"virtual {step.level} alarm",
-            position=position_of(fc.position(), fc.home()),
-            mission_id=self.mission_id,
-            step_index=self.controller.step_index,
-            virtual=True,
-            vehicle_time_s=round(self.clock.now(), 3),
-        )
-        self.outbox.post(self.controller.topic(Channel.ALARMS), alarm)
-        return {"alarm": str(step.level)}
-
-    async def _read_sensors(self, step: Any) -> dict[str, Any]:
-        if step.value:
-            await self.clock.sleep(step.value)
-        if self._sensor_names is None:  # asked once per mission, not at every waypoint
-            try:
-                sensors = (await self.controller.gear(GearQuery.SENSORS)).get("sensors") or {}
-            except CommandError as exc:  # the Gear Manager unreachable (its broker away)
-                # A reading missed is recorded; the mission flies on (issue 13).
-                return {"readings": {}, "error": str(exc)}
-            self._sensor_names = _sensor_names(sensors)
-        readings = {}
-        for name in self._sensor_names:
-            with contextlib.suppress(CommandError):
-                readings[name] = (await self.controller.gear(GearQuery.READING, name)).get(
-                    "reading"
-                )
-        return {"readings": readings}
 
     def _in_air(self) -> bool:
         return self.controller.fc.state().in_air
@@ -470,25 +446,3 @@ class MissionWorker:
                 vehicle_time_s=round(self.clock.now(), 3),
             )
             self.outbox.post(self.controller.topic(Channel.MISSION), said)
-
-
-def _sensor_names(sensors: dict[str, Any]) -> list[str]:
-    """Sensor keys of a Listing 4.2 sensor list: nested groups ({"GAS": {"CO2": ...}}) flattened."""
-    names: list[str] = []
-    for key, value in sensors.items():
-        if isinstance(value, dict):
-            names.extend(value.keys())
-        elif key.upper() != "CAMERA":
-            names.append(key)
-    return names
-
-
-def _ids_of(payload: bytes) -> tuple[str | None, str | None]:
-    try:
-        data = decode(payload)
-    except MessageError:
-        return None, None
-    if not isinstance(data, dict):
-        return None, None
-    rid, mid = data.get("request_id"), data.get("mission_id")
-    return (rid if isinstance(rid, str) else None, mid if isinstance(mid, str) else None)

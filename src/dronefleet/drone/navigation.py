@@ -11,6 +11,10 @@ climb: ArduPilot Copter's GUIDED mode turns a position target into a waypoint
 motors idle while the vehicle is landed, so a ``navigate`` sent right after ``takeoff`` cancelled
 the climb and the autopilot disarmed after DISARM_DELAY (issue 17). ``navigate`` therefore waits
 until the vehicle is :data:`SAFE_HEIGHT_M` up, then flies on at full speed (climbing on the way).
+
+A return asked for with ``rally`` (a drone sent home early: abort, handover, a lost drone heard
+again) lands at the nearest of the running mission's rally points instead of home when one is
+nearer (messaging/fence.py :func:`nearest_rally`), chosen here from where the drone really is.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from dronefleet.clock import wait_until
 from dronefleet.drone.takeover import ModeLedger
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.messaging.fence import Geofence, RallyPoint, nearest_rally
 from dronefleet.vehicle.base import FcError, FcRefused, FlightController
 
 log = logging.getLogger(__name__)
@@ -72,6 +77,9 @@ class NavigationProcessor:
         self.landing = False  # after a land request, the goal is being on the ground
         self.takeoff_height_m: float | None = None  # the take-off climb in progress, if any
         self._homing: asyncio.Task[None] | None = None  # our RTL's landing, once home
+        # The running mission's rally points and fence (set by the Mission Worker).
+        self.rally_points: list[RallyPoint] = []
+        self.fence: Geofence | None = None
         self.modes = ModeLedger(fc)  # the flight modes we chose (drone/takeover.py)
 
     # -- requests ----------------------------------------------------------------------------
@@ -105,12 +113,23 @@ class NavigationProcessor:
         self._check_height(target.alt_m - home.alt_m)
         return await self._go(target)
 
-    async def return_to_launch(self) -> LLA:
+    async def return_to_launch(self, *, rally: bool = False) -> LLA:
         """Fly home and land there: the autopilot's own RTL where it has one (ArduPilot: climb
-        to RTL_ALT, fly home, land), else the same here (:data:`RTL_ALT_M`). ``wait_for_flight``
-        then waits until the drone is down."""
+        to RTL_ALT, fly home, land), else the same here (:data:`RTL_ALT_M`). With ``rally``, to
+        the nearest rally point nearer than home instead, at its height, and land there.
+        ``wait_for_flight`` then waits until the drone is down. Returns where it lands."""
         home = self.fc.home()
         self._stop_homing()
+        point = self._rally_point(home) if rally else None
+        if point is not None:
+            there = LLA(point.lat, point.lon, home.alt_m + point.alt_m)
+            log.info(
+                "RTL to the rally point at %.6f, %.6f (nearer than home)", there.lat, there.lon
+            )
+            await self._go(there)
+            self._homing = asyncio.create_task(self._land_on_arrival(there), name="rtl")
+            self.landing = True
+            return there
         native = getattr(self.fc, "return_to_launch", None)
         if native is not None:
             async with self.modes.choosing():
@@ -122,12 +141,18 @@ class NavigationProcessor:
             return home
         height = max(self._height_m(), RTL_ALT_M)
         await self._go(LLA(home.lat, home.lon, home.alt_m + height))
-        self._homing = asyncio.create_task(self._land_when_home(), name="rtl")
+        self._homing = asyncio.create_task(self._land_on_arrival(home), name="rtl")
         self.landing = True  # what wait_for_flight waits for: on the ground, at home
         return home
 
-    async def _land_when_home(self) -> None:
-        home = self.fc.home()
+    def _rally_point(self, home: LLA) -> RallyPoint | None:
+        """The rally point to land at instead of home, if any (only in the air: a drone still
+        on the ground is just made safe where it is, as an RTL does)."""
+        if not self.rally_points or not self.fc.state().in_air:
+            return None
+        return nearest_rally(self.rally_points, self.fc.position(), home, self.fence)
+
+    async def _land_on_arrival(self, where: LLA) -> None:
         arrived = await wait_until(
             self.fc.clock,
             lambda: self.distance_to_goal_m() < self.tolerance.horizontal_m,
@@ -137,7 +162,7 @@ class NavigationProcessor:
             async with self.modes.choosing():
                 await self.fc.land()
             self.goal = None
-            log.info("RTL: home at %.6f, %.6f, landing", home.lat, home.lon)
+            log.info("RTL: at %.6f, %.6f, landing", where.lat, where.lon)
 
     def _stop_homing(self) -> None:
         task, self._homing = self._homing, None

@@ -98,6 +98,12 @@ class Harness:
             await self.ground.stop()
             self.ground = None
 
+    def separation(self) -> dict[str, Any]:
+        """The separation monitor's counts so far (ground/separation_monitor.py)."""
+        if self.ground is None or self.ground.separation is None:
+            raise RuntimeError("the ground services are not running (start_ground first)")
+        return self.ground.separation.status().model_dump(mode="json", exclude={"active"})
+
     def _on_event(self, event: str, data: dict[str, Any]) -> None:
         self.events.append((event, data))
         self._changed.set()

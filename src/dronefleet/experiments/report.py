@@ -27,6 +27,9 @@ class Result:
     gap_s: float | None = None
     mission_id: str = ""
     notes: dict[str, Any] = field(default_factory=dict)
+    #: The ground's separation monitor over the run (ground/separation_monitor.py): encounters
+    #: predicted and actual, the closest approaches in metres.
+    separation: dict[str, Any] = field(default_factory=dict)
 
     def as_json(self) -> dict[str, Any]:
         data = asdict(self)
@@ -50,4 +53,20 @@ class Result:
         )
         rows.append(f"  waypoints reached: {self.waypoints_reached}/{self.waypoints_planned}")
         rows += [f"  {k}: {v}" for k, v in self.notes.items()]
+        if self.separation:
+            rows.append(f"  {separation_line(self.separation)}")
         return "\n".join(rows)
+
+
+def separation_line(figures: dict[str, Any]) -> str:
+    """The separation monitor's figures in one line."""
+
+    def metres(value: float | None) -> str:
+        return "n/a (never two in the air)" if value is None else f"{value:.1f} m"
+
+    return (
+        f"separation: {figures.get('predicted_breaches', 0)} predicted /"
+        f" {figures.get('actual_breaches', 0)} actual breaches; closest approach"
+        f" {metres(figures.get('min_distance_m'))}, horizontally within"
+        f" {figures.get('vertical_m', 3.0):g} m of height {metres(figures.get('min_horizontal_m'))}"
+    )

@@ -27,7 +27,7 @@ from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec
 from dronefleet.ground.planner.coverage.spec import Action, Grid
 from dronefleet.ground.planner.ends import EndAction
-from dronefleet.ground.planner.launch import MissionSpec
+from dronefleet.ground.planner.mission_spec import MissionSpec
 from dronefleet.ground.planner.models import Leg, MissionRecord
 from dronefleet.ground.planner.options import MissionOptions, Strategy
 from dronefleet.ground.planner.units import units
@@ -315,7 +315,9 @@ async def run(
     Raises :class:`ExperimentFailed` with the scenario's state when the run does not finish."""
     async with Harness(speedup=speedup, fc=fc) as h:
         try:
-            return await SCENARIOS[name](h, strategy)
+            result = await SCENARIOS[name](h, strategy)
+            result.separation = h.separation()
+            return result
         except Exception as exc:
             what = str(exc) or type(exc).__name__
             raise ExperimentFailed(f"{name} ({strategy}) failed: {what} ({_state(h)})") from exc

@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections import Counter
 from typing import Any, Literal
 
 from pydantic import Field
@@ -64,6 +65,9 @@ class DroneIdentifier:
         client_id: str,
         lost_after_s: float = MIN_LOST_AFTER_S,
     ) -> None:
+        #: Heartbeats dropped, by why: malformed (or an id off the pattern, an absurd
+        #: interval), or a drone speaking on another's topic (issue 12).
+        self.dropped: Counter[str] = Counter()
         self.lost_after_s = lost_after_s  # at least this long unheard before "lost"
         self.client = BrokerClient(broker_url, client_id)
         self.requester = Requester(self.client)
@@ -111,11 +115,13 @@ class DroneIdentifier:
         try:
             hb = validate(LenientHeartbeat, decode_object(payload))
         except MessageError as exc:
+            self.dropped["malformed heartbeat"] += 1
             _throttle.log(
                 logging.WARNING, "heartbeat", "dropping heartbeat on %s: %s", topic_name, exc
             )
             return
         if not topic_name.startswith(f"{hb.drone_id}/"):
+            self.dropped["heartbeat on another drone's topic"] += 1
             _throttle.log(
                 logging.WARNING,
                 "heartbeat",

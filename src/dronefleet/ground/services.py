@@ -1,7 +1,8 @@
 """All ground services in one process (seed Fig. 3.7 minus the Mission Planner).
 
 :class:`GroundServices` starts the state store, the Drone Identifier, the Telemetry Analyzer's
-connector and store, and the Drone Manager (gateway, live stream hub, HTTP server). Each component
+connector and store, the Drone Manager (gateway, live stream hub, HTTP server), the Mission
+Planner and the separation monitor (ground/separation_monitor.py). Each component
 keeps its own broker connection and talks to the others only through the ground broker.
 ``dronefleet ground`` and ``dronefleet demo`` both use it.
 """
@@ -23,10 +24,15 @@ from dronefleet.ground.manager.app import create_app
 from dronefleet.ground.manager.auth import Role, TokenBook
 from dronefleet.ground.manager.context import ManagerContext
 from dronefleet.ground.manager.gateway import DroneGateway
+from dronefleet.ground.manager.geocoder import Geocoder
+from dronefleet.ground.manager.mbtiles import MBTiles, is_tile_url
 from dronefleet.ground.manager.stream import StreamHub
+from dronefleet.ground.photos.collector import PhotoCollector
+from dronefleet.ground.photos.store import PhotoStore
 from dronefleet.ground.planner.service import MissionPlanner
 from dronefleet.ground.planner.worker import DEFAULT_BUDGET_S, PlanningWorker
 from dronefleet.ground.presence import GroundPresence
+from dronefleet.ground.separation_monitor import SeparationMonitor
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.connector import TelemetryConnector
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
@@ -57,7 +63,15 @@ class GroundServices:
         planning_processes: int = 1,
         planning_budget_s: float = DEFAULT_BUDGET_S,
         lost_after_s: float = MIN_LOST_AFTER_S,
+        tiles: str | Path | None = None,
+        geocoder: str | None = None,
+        photo_dir: str | Path | None = None,
     ) -> None:
+        self.geocoder_url = geocoder  # a Nominatim-compatible geocoder for the maps' search
+        # The drones' pictures, per mission (ground/photos): beside the state DB by default.
+        self.photo_dir = Path(photo_dir) if photo_dir else Path(state_path).parent / "photos"
+        #: Map imagery for the web maps: a tile server's URL template or an MBTiles file.
+        self.tiles = tiles
         self.lost_after_s = lost_after_s  # a drone unheard this long (at least) is lost
         self.broker_url = (
             broker_url if isinstance(broker_url, BrokerUrl) else BrokerUrl.parse(broker_url)
@@ -82,6 +96,9 @@ class GroundServices:
         self.gateway: DroneGateway | None = None
         self.hub: StreamHub | None = None
         self.planner: MissionPlanner | None = None
+        self.separation: SeparationMonitor | None = None
+        self.photos: PhotoStore | None = None
+        self.photo_collector: PhotoCollector | None = None
         self.app: Any = None
         self._server: uvicorn.Server | None = None
         self._serve_task: asyncio.Task[None] | None = None
@@ -130,15 +147,57 @@ class GroundServices:
         self.planner = MissionPlanner(
             url, self.state, client_id=self.planner_client_id, worker=self.planning
         )
-        for service in (self.identifier, self.connector, self.gateway, self.hub, self.planner):
+        self.separation = SeparationMonitor(url, client_id=f"ground-separation-{suffix}")
+        services = (
+            self.identifier, self.connector, self.gateway, self.hub, self.planner, self.separation
+        )  # fmt: skip
+        for service in services:
             await service.start()
             self._started.append(service)
+        # The drones' pictures: fetched as their takepic steps are reported (issue 14).
+        self.photos = PhotoStore(self.photo_dir)
+        self.photo_collector = PhotoCollector(
+            url, self.planner, self.photos, client_id=f"ground-photos-{suffix}"
+        )
+        await self.photo_collector.start()
+        self._started.append(self.photo_collector)
 
         ctx = ManagerContext(self.state, tokens, self.gateway, self.telemetry, self.hub)
         self.app = create_app(ctx)
         self.app.state.planner = self.planner
+        self.app.state.dropped = self.dropped_messages
+        self.app.state.separation = self.separation
+        self.app.state.photos = self.photos
+        await self._map_sources()
         if self.serve_http:
             await self._serve()
+
+    def dropped_messages(self) -> dict[str, int]:
+        """Every broker message the ground services refused, by kind (issue 12)."""
+        counts: dict[str, int] = {}
+        for service in (self.identifier, self.planner):
+            counts.update(service.dropped if service is not None else {})
+        for kind, counted in (("telemetry", self.connector), ("stream", self.hub)):
+            counts[kind] = counted.dropped if counted is not None else 0
+        return {kind: n for kind, n in counts.items() if n}
+
+    async def _map_sources(self) -> None:
+        """The web maps' imagery: a URL template is handed to the pages (and allowed by the
+        CSP); an MBTiles file is opened read-only and served by the ground itself."""
+        self.app.state.web_tiles = None
+        self.app.state.mbtiles = None
+        self.app.state.geocoder = None
+        if self.geocoder_url:
+            self.app.state.geocoder = Geocoder(self.geocoder_url)
+            self._started.append(self.app.state.geocoder)
+        if self.tiles is None:
+            return
+        if is_tile_url(str(self.tiles)):
+            self.app.state.web_tiles = str(self.tiles)
+            return
+        mbtiles = await MBTiles.open(self.tiles)
+        self._started.append(mbtiles)
+        self.app.state.mbtiles = mbtiles
 
     async def _tokens(self, tokens: TokenBook) -> None:
         first_start = not await tokens.has_any()

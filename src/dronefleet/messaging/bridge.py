@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ipaddress
 
+from dronefleet.messaging.broker_users import hash_password
 from dronefleet.messaging.topics import (
     OUT_ONLY,
     Channel,
@@ -55,11 +56,14 @@ def bridge_config(
     password: str | None = None,
     connection: str = "groundRelay",
     listener: tuple[str, int] | None = None,
+    local_users: tuple[str, str] | None = None,
     qos: int = 1,
     max_queued: int = MAX_QUEUED,
     cafile: str | None = None,
 ) -> str:
-    """The bridge section for ``drone_id`` (a full ``mosquitto.conf`` if ``listener`` is given)."""
+    """The bridge section for ``drone_id`` (a full ``mosquitto.conf`` if ``listener`` is given:
+    then ``local_users`` names the password and ACL files :func:`drone_broker_files` wrote, so
+    that even on the drone nobody reaches its broker anonymously)."""
     check_drone_id(drone_id)
     _quote_free("ground host", ground_host)
     _quote_free("connection", connection)
@@ -69,13 +73,18 @@ def bridge_config(
     if listener is not None:
         host, port = listener
         if not ipaddress.ip_address(host if host != "localhost" else "127.0.0.1").is_loopback:
-            # The drone's own parts reach their broker anonymously, on the drone only; anything
-            # that can reach it from outside must not (issue 12).
+            # The drone's broker is for the drone's own parts; the ground reaches it only
+            # through the bridge (issue 12).
             raise ValueError(f"the drone's listener must be on loopback, not {host}")
+        if local_users is None:
+            raise ValueError("a drone's broker needs its password and ACL files (local_users)")
+        passwords, acl = (_quote_free("password file", f) for f in local_users)
         # Request/response is small-packet ping-pong: Nagle would add ~40 ms per hop.
         lines += [
             f"listener {port} {host}",
-            "allow_anonymous true",
+            "allow_anonymous false",
+            f"password_file {passwords}",
+            f"acl_file {acl}",
             "set_tcp_nodelay true",
             "",
         ]
@@ -103,3 +112,19 @@ def bridge_config(
         f'topic {any_drone(c)} out {qos if c in KEPT_CHANNELS else 0} "" ""' for c in OUT_CHANNELS
     ]
     return "\n".join(lines) + "\n"
+
+
+def drone_broker_files(drone_id: str, password: str) -> tuple[str, str]:
+    """(password file, ACL file) for the drone's own Mosquitto: its parts log in as the drone
+    (the same user and password as its bridge to the ground) and may use only topics under its
+    id. The bridge's own traffic is the broker's and is not checked against the ACL."""
+    check_drone_id(drone_id)
+    if not password:
+        raise ValueError("the drone's broker password is empty")
+    passwords = f"{drone_id}:{hash_password(password)}\n"
+    acl = (
+        "# Written by `dronefleet bridge-config --listener` (messaging/bridge.py): the drone's\n"
+        "# parts log in as the drone; anonymous clients are refused.\n"
+        f"user {drone_id}\ntopic readwrite {drone_id}/#\n"
+    )
+    return passwords, acl

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import asyncio
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from amqtt.broker import Broker
@@ -65,6 +65,14 @@ class _Filters(dict[str, list[Any]]):
             self.wildcards.discard(key)
             self.wildcard_version += 1
         return super().pop(key, *default)
+
+    def __iter__(self) -> Iterator[str]:
+        # A snapshot: amqtt 0.12.1 iterates the filters with an ``await`` in the loop body (the
+        # retained messages of a reconnecting persistent session, broker.py line 601), so a
+        # SUBSCRIBE from another client meanwhile failed that connection with "dictionary
+        # changed size during iteration" and the client never got its CONNACK (seen when a
+        # restarted ground's clients reconnect together).
+        return iter(list(dict.keys(self)))
 
     def __repr__(self) -> str:
         # amqtt logs repr(subscriptions) at DEBUG after every SUBSCRIBE, formatted eagerly:

@@ -26,6 +26,7 @@ from paho.mqtt.matcher import MQTTMatcher
 from pydantic import BaseModel
 
 from dronefleet.errors import Unavailable
+from dronefleet.messaging.acks import AckTicket
 from dronefleet.messaging.codec import encode
 from dronefleet.messaging.log_throttle import LogThrottle, ThrottleFilter
 from dronefleet.messaging.memory import release_freed_memory_soon
@@ -61,7 +62,7 @@ class _Subscription:
     pattern: str
     handler: Handler
     qos: int
-    queue: asyncio.Queue[tuple[str, bytes]] = field(
+    queue: asyncio.Queue[tuple[str, bytes, AckTicket | None]] = field(
         default_factory=lambda: asyncio.Queue(QUEUE_LIMIT)
     )
     worker: asyncio.Task[None] | None = None
@@ -95,6 +96,8 @@ class BrokerClient:
         # mqtts://: the broker's certificate is checked (against ?cafile=, else the system's
         # CAs) and its name must match; never an unverified TLS link (issue 12).
         self._tls = ssl.create_default_context(cafile=self.url.ca_file) if self.url.tls else None
+        if self._tls is not None and self.url.cert_file:
+            self._tls.load_cert_chain(self.url.cert_file, self.url.key_file)
         self.client_id = client_id
         self.keepalive_s = keepalive_s
         self.reconnect_s = reconnect_s
@@ -102,6 +105,7 @@ class BrokerClient:
         self._subs: list[_Subscription] = []
         self._matcher = MQTTMatcher()  # filter -> its subscriptions
         self._client: aiomqtt.Client | None = None
+        self._paho: Any = None  # paho's client under the current connection (for acks)
         self._connected = asyncio.Event()
         self._runner: asyncio.Task[None] | None = None
         self._stopping = False
@@ -221,14 +225,14 @@ class BrokerClient:
                 payload = item.payload
                 if not isinstance(payload, bytes | bytearray):
                     payload = str(payload or "").encode()
-                dispatch(item.topic.value, bytes(payload))
+                dispatch(item.topic.value, bytes(payload), item.mid, item.qos)
 
         return Dispatch
 
     async def _run(self) -> None:
         while not self._stopping:
             try:
-                async with aiomqtt.Client(
+                connection = aiomqtt.Client(
                     self.url.host,
                     self.url.port,
                     username=self.url.username,
@@ -239,7 +243,12 @@ class BrokerClient:
                     queue_type=self._queue_type,
                     logger=_MQTT_LOG,
                     tls_context=self._tls,
-                ) as client:
+                )
+                # A persistent session's messages are acknowledged once handled (acks.py).
+                connection._client.manual_ack_set(self.persistent_session)
+                # Set before connecting: a resumed session's messages come with the CONNACK.
+                self._paho = connection._client
+                async with connection as client:
                     self._client = client
                     _no_delay(client)
                     for sub in self._subs:
@@ -260,9 +269,15 @@ class BrokerClient:
             if not self._stopping:
                 await asyncio.sleep(self.reconnect_s)
 
-    def _dispatch(self, topic_name: str, payload: bytes) -> None:
-        for sub in (sub for subs in self._matcher.iter_match(topic_name) for sub in subs):
+    def _dispatch(self, topic_name: str, payload: bytes, mid: int = 0, qos: int = 0) -> None:
+        subs = [sub for subs in self._matcher.iter_match(topic_name) for sub in subs]
+        ticket = None
+        if self.persistent_session and qos > 0 and self._paho is not None:
+            ticket = AckTicket(self._paho, mid, qos, pending=len(subs))
+        for sub in subs:
             if len(payload) > MAX_PAYLOAD_BYTES:
+                if ticket is not None:
+                    ticket.done()
                 sub.dropped += 1
                 _throttle.log(logging.WARNING, f"big:{sub.pattern}", "%s: a %d-byte message on %s "
                               "dropped (limit %d)", self.client_id, len(payload), topic_name,
@@ -270,13 +285,15 @@ class BrokerClient:
                 continue
             while sub.queue.full() or sub.queued_bytes + len(payload) > QUEUE_BYTES:
                 # A flood must not delay what comes after it: the oldest waiting message goes.
-                _, old = sub.queue.get_nowait()
+                _, old, old_ticket = sub.queue.get_nowait()
+                if old_ticket is not None:
+                    old_ticket.done()
                 sub.queued_bytes -= len(old)
                 sub.dropped += 1
                 what = "%s: queue for %s full; dropped its oldest message"
                 _throttle.log(logging.WARNING, f"full:{sub.pattern}", what, self.client_id,
                               sub.pattern)  # fmt: skip
-            sub.queue.put_nowait((topic_name, payload))
+            sub.queue.put_nowait((topic_name, payload, ticket))
             sub.queued_bytes += len(payload)
 
     async def _work(self, sub: _Subscription) -> None:
@@ -284,18 +301,20 @@ class BrokerClient:
             if sub.since_trim >= TRIM_AFTER and sub.queue.empty():
                 release_freed_memory_soon()
                 sub.since_trim = 0
-            topic_name, payload = await sub.queue.get()
+            topic_name, payload, ticket = await sub.queue.get()
             sub.since_trim += 1
             sub.queued_bytes -= len(payload)
             try:
                 await sub.handler(topic_name, payload)
             except asyncio.CancelledError:
-                raise
+                raise  # not acknowledged: delivered again to the next session
             except Exception:
                 sub.failed += 1
                 what = "handler for %s failed on a message from %s; dropped"
                 _throttle.log(logging.ERROR, f"fail:{sub.pattern}", what, sub.pattern,
                               topic_name, exc=True)  # fmt: skip
+            if ticket is not None:
+                ticket.done()
 
 
 def _keep_cancellation() -> None:

@@ -47,6 +47,7 @@ class Command(StrEnum):
 class AlarmLevel(StrEnum):
     CRITICAL = "CRITICAL"  # the drone must be replaced
     OUT_MEASURE = "OUT_MEASURE"  # a reading outside its bounds: collaboration requested
+    WARNING = "WARNING"  # look now: e.g. two drones about to come too close (ground/separation)
 
 
 RequestId = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_\-]+$")]
@@ -93,6 +94,11 @@ class Land(_Request):
 
 class Rtl(_Request):
     command: Literal[Command.RTL]
+    rally: bool = Field(
+        default=False,
+        description="land at the nearest of the mission's rally points instead, when one is "
+        "nearer than home (a drone sent home early: abort, handover, lost)",
+    )
 
 
 class Takeoff(_Request):

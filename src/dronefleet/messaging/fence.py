@@ -1,9 +1,15 @@
-"""A geofence as missions carry it: where a drone may fly (issue 14).
+"""A geofence and rally points as missions carry them: where a drone may fly, and where it may
+come down instead of home (issue 14).
 
 An inclusion polygon (the site: fly inside it), exclusion polygons (a road, a house: never over
 them) and a ceiling above home, as ArduPilot's polygon fences and FENCE_ALT_MAX are. The ground
 checks every share against it before a mission is accepted (ground/planner/geofence.py) and sends
 it with each leg; the drone watches its position against it in flight (drone/fence_guard.py).
+
+Rally points are ArduPilot's (MAV_CMD_NAV_RALLY_POINT): places to land that are not home. A drone
+sent home early (abort, a handover, a lost drone heard again) goes to the nearest one when it is
+nearer than home (ground/planner/rally.py); a MAVLink autopilot gets them too
+(drone/autopilot_fence.py), so that its own RTL and failsafes use them.
 
 Geometry with shapely (already the coverage planner's), in a local metric frame (north, east
 metres from the first fence corner, or from the drone when there is no inclusion polygon): over a
@@ -15,6 +21,7 @@ from __future__ import annotations
 from pydantic import ConfigDict, Field, field_validator
 from shapely.geometry import LineString, Point, Polygon
 
+from dronefleet.geo.distance import distance_m
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
 from dronefleet.messaging.common import Message
@@ -44,6 +51,22 @@ class Geofence(Message):
         for shape in value:
             _check_polygon(shape)
         return value
+
+
+class RallyPoint(Message):
+    """A place to land that is not home: [lat, lon] and the height (m above home) to fly there
+    at, as QGroundControl's rally points and ArduPilot's RALLY_POINT are."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    lat: float = Field(ge=-90, le=90)
+    lon: float = Field(ge=-180, le=180)
+    alt_m: float = Field(default=15.0, gt=0, le=1000, description="height above home to fly at")
+
+
+#: Most rally points a mission may carry (ArduPilot keeps up to RALLY_TOTAL, 6 by default on
+#: small boards; QGroundControl draws any number).
+MAX_RALLY_POINTS = 100
 
 
 def _check_polygon(shape: LatLonList) -> None:
@@ -101,3 +124,22 @@ class FenceShape:
 def _beyond(zone: Polygon, point: Point, margin_m: float) -> bool:
     """Outside ``zone`` by more than ``margin_m``."""
     return not zone.contains(point) and zone.exterior.distance(point) > margin_m
+
+
+def nearest_rally(
+    points: list[RallyPoint], here: LLA, home: LLA, fence: Geofence | None = None
+) -> RallyPoint | None:
+    """Where a drone at ``here`` sent home early lands instead: the nearest rally point that is
+    nearer than ``home`` and reached by a straight leg inside ``fence``; None: home it is.
+
+    ArduPilot's RTL chooses the same way among its rally points and home (RALLY_INCL_HOME 1).
+    """
+    shape = FenceShape(fence, here) if fence is not None else None
+    best, best_m = None, distance_m(here, home)
+    for point in points:
+        there = LLA(point.lat, point.lon, home.alt_m + point.alt_m)
+        metres = distance_m(here, there)
+        if metres >= best_m or (shape is not None and shape.leg_breach(here, there)):
+            continue
+        best, best_m = point, metres
+    return best

@@ -17,7 +17,7 @@ from pydantic import Field
 from dronefleet.messaging.codec import MessageError, decode, encode
 from dronefleet.messaging.commands import RequestId, parse_step
 from dronefleet.messaging.common import DroneId, Message, Position, wall_time
-from dronefleet.messaging.fence import Geofence
+from dronefleet.messaging.fence import MAX_RALLY_POINTS, Geofence, RallyPoint
 
 MAX_STEPS = 10_000
 
@@ -41,6 +41,11 @@ class MissionRequest(Message):
     start_index: int = Field(default=0, ge=0, description="index of the first step's label")
     fence: Geofence | None = Field(
         default=None, description="where the drone may fly this mission (drone/fence_guard.py)"
+    )
+    rally: list[RallyPoint] = Field(
+        default_factory=list,
+        max_length=MAX_RALLY_POINTS,
+        description="rally points, uploaded to a MAVLink autopilot with the fence",
     )
     onboard: bool | None = Field(
         default=None,
@@ -119,3 +124,16 @@ class MissionProgress(Message):
     vehicle_time_s: float | None = None
     timestamp: float = Field(default_factory=wall_time)
     kind: Literal["progress"] = "progress"
+
+
+def request_ids(payload: bytes) -> tuple[str | None, str | None]:
+    """The ``request_id`` and ``mission_id`` of a ``mission/in`` payload, read before it is
+    validated, so that even the rejection of a bad one names what it answers."""
+    try:
+        data = decode(payload)
+    except MessageError:
+        return None, None
+    if not isinstance(data, dict):
+        return None, None
+    rid, mid = data.get("request_id"), data.get("mission_id")
+    return (rid if isinstance(rid, str) else None, mid if isinstance(mid, str) else None)

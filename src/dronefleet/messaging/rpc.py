@@ -13,7 +13,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from dronefleet.errors import NoAnswer
-from dronefleet.messaging.client import QOS_COMMAND, BrokerClient
+from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
 from dronefleet.messaging.common import new_request_id
 
@@ -41,8 +41,14 @@ class Requester:
         """Subscribe once per pattern; every request (even one made meanwhile) waits for it."""
         ready = self._subscribed.get(reply_pattern)
         if ready is None:
+            # A persistent session acknowledges what it handles only once handled (acks.py):
+            # its unacknowledged backlog (progress waiting for the planner's lock) may fill the
+            # broker's in-flight window, and an answer at QoS 1 would then wait behind it while
+            # the lock's holder waits for that very answer. Answers come at QoS 0 there: an
+            # answer is wanted now or never (the request times out).
+            qos = QOS_STREAM if self.client.persistent_session else QOS_COMMAND
             ready = asyncio.ensure_future(
-                self.client.subscribe(reply_pattern, self._on_reply, qos=QOS_COMMAND)
+                self.client.subscribe(reply_pattern, self._on_reply, qos=qos)
             )
             self._subscribed[reply_pattern] = ready
         await asyncio.shield(ready)

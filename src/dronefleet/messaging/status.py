@@ -9,6 +9,7 @@ from pydantic import Field
 
 from dronefleet.messaging.commands import AlarmLevel
 from dronefleet.messaging.common import DroneId, Message, Position, wall_time
+from dronefleet.vehicle.base import GpsFix
 
 
 class FlightState(StrEnum):
@@ -47,6 +48,21 @@ class FlightParams(Message):
     flight_current_a: float | None = Field(default=None, gt=0, le=1000)
 
 
+class GpsStatus(Message):
+    """The GPS receiver's fix and satellites, for the pre-flight check (issue 14)."""
+
+    fix: GpsFix
+    satellites: int = Field(ge=0, le=255)
+    hdop: float | None = Field(default=None, ge=0, le=100)
+
+
+class WindStatus(Message):
+    """The wind the autopilot estimates; absent from a heartbeat when it estimates none."""
+
+    speed_mps: float = Field(ge=0, le=100)
+    from_deg: float = Field(ge=0, le=360)
+
+
 class Heartbeat(Message):
     """Sent every 5 s (vehicle time) on ``<id>/heartbeats/out``."""
 
@@ -67,6 +83,9 @@ class Heartbeat(Message):
         default=True, description="the drone's link to its flight controller is up"
     )
     flight: FlightParams | None = None
+    ground_speed_mps: float | None = Field(default=None, ge=0, le=200)
+    gps: GpsStatus | None = None
+    wind: WindStatus | None = None
 
 
 class Alarm(Message):

@@ -98,3 +98,6 @@ IDENTIFIER_EVENTS = ground("identifier", "events")
 
 #: What the Mission Planner tells the web apps (mission created, leg started, handover...).
 PLANNER_EVENTS = ground("planner", "events")
+#: The ground's separation monitor raises its alarms here (shared Alarm model), not on a drone's
+#: alarm topic: a separation alarm is the ground's, and must not look like a drone's CRITICAL.
+SEPARATION_ALARMS = ground("separation", "alarms")

@@ -1,6 +1,7 @@
 """Broker URLs choose the broker (docs/DESIGN.md §3): ``mqtt://user:pass@host:port``, or over
 TLS ``mqtts://user@host:8883?cafile=/path/ca.pem`` (the broker's certificate checked against that
-CA, or the system's CAs without one; issue 12)."""
+CA, or the system's CAs without one; issue 12), with ``&certfile=…&keyfile=…`` for a broker that
+asks clients for a certificate (Mosquitto's ``require_certificate``)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ from dataclasses import dataclass
 from urllib.parse import parse_qs, quote, unquote, urlsplit
 
 _TLS = {"mqtts", "ssl"}
+#: URL query option -> field; all of them TLS files.
+_OPTIONS = {"cafile": "ca_file", "certfile": "cert_file", "keyfile": "key_file"}
 
 
 @dataclass(frozen=True)
@@ -18,6 +21,8 @@ class BrokerUrl:
     password: str | None = None
     tls: bool = False
     ca_file: str | None = None  # the CA that signed the broker's certificate (TLS)
+    cert_file: str | None = None  # the client's own certificate (TLS, when the broker asks)
+    key_file: str | None = None  # its private key (else in cert_file)
 
     @classmethod
     def parse(cls, url: str) -> BrokerUrl:
@@ -32,21 +37,29 @@ class BrokerUrl:
         except ValueError as exc:
             raise ValueError(f"broker URL {url!r} has an invalid port") from exc
         query = parse_qs(parts.query)
-        if set(query) - {"cafile"} or (query and not tls):
-            raise ValueError(f"broker URL {url!r}: the only option is ?cafile=, with mqtts://")
+        if set(query) - set(_OPTIONS) or (query and not tls):
+            raise ValueError(
+                f"broker URL {url!r}: the only options are cafile, certfile and keyfile, "
+                "with mqtts://"
+            )
+        if "keyfile" in query and "certfile" not in query:
+            raise ValueError(f"broker URL {url!r}: keyfile= needs certfile=")
         return cls(
             host=parts.hostname,
             port=port,
             username=unquote(parts.username) if parts.username else None,
             password=unquote(parts.password) if parts.password else None,
             tls=tls,
-            ca_file=query["cafile"][-1] if "cafile" in query else None,
+            **{field: query[key][-1] for key, field in _OPTIONS.items() if key in query},
         )
 
     def _tail(self) -> str:
-        return f"{self.host}:{self.port}" + (
-            f"?cafile={quote(self.ca_file, safe='/')}" if self.ca_file else ""
-        )
+        options = [
+            f"{key}={quote(value, safe='/')}"
+            for key, field in _OPTIONS.items()
+            if (value := getattr(self, field)) is not None
+        ]
+        return f"{self.host}:{self.port}" + ("?" + "&".join(options) if options else "")
 
     @property
     def scheme(self) -> str:

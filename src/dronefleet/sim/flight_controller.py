@@ -21,7 +21,10 @@ from dronefleet.vehicle.base import (
     Attitude,
     BatteryState,
     FcError,
+    GpsFix,
+    GpsState,
     VehicleState,
+    WindEstimate,
     telemetry_sample,
 )
 from dronefleet.vehicle.kinematics import GRAVITY_MPS2
@@ -135,6 +138,18 @@ class SimFlightController:
 
     def velocity(self) -> NED:
         return self.vehicle.velocity_ned
+
+    def gps(self) -> GpsState:
+        """The simulated receiver: a 3-D fix from its first sample, with its satellites."""
+        receiver = self.vehicle.gps
+        fix = GpsFix.FIX_3D if receiver.fix_count > 0 else GpsFix.NO_FIX
+        return GpsState(fix, receiver.satellites if fix.usable else 0, receiver.hdop)
+
+    def wind(self) -> WindEstimate:
+        """The wind the vehicle flies in, as an autopilot's estimate of it (ArduPilot's WIND):
+        the simulated world's own, so calm when it is calm."""
+        wind = self.vehicle.wind
+        return WindEstimate(wind.speed_mps, wind.from_deg)
 
     def battery(self) -> BatteryState:
         return self.vehicle.battery_state

@@ -63,9 +63,44 @@ class VehicleState:
     landing: bool = False
 
 
+class GpsFix(StrEnum):
+    """The GPS receiver's fix, as MAVLink's GPS_FIX_TYPE and UAVTalk's GPSPosition.Status say."""
+
+    NO_GPS = "no_gps"
+    NO_FIX = "no_fix"
+    FIX_2D = "2d"
+    FIX_3D = "3d"  # 3-D and better (DGPS, RTK): a position to fly on
+
+    @property
+    def usable(self) -> bool:
+        return self is GpsFix.FIX_3D
+
+
+@dataclass(frozen=True, slots=True)
+class GpsState:
+    """What the GPS receiver reports: its fix, the satellites it uses, its horizontal dilution."""
+
+    fix: GpsFix
+    satellites: int
+    hdop: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class WindEstimate:
+    """The wind the autopilot estimates (ArduPilot's WIND message): speed over the ground and
+    where it blows from (0 = north), meteorological convention."""
+
+    speed_mps: float
+    from_deg: float
+
+
 @runtime_checkable
 class FlightController(Protocol):
-    """What the Drone Controller needs from an autopilot."""
+    """What the Drone Controller needs from an autopilot.
+
+    Backends may also offer ``gps() -> GpsState`` and ``wind() -> WindEstimate | None`` (None:
+    the autopilot estimates no wind); the Drone Controller puts them in its heartbeats when
+    there, for the pre-flight checks (ground/planner/preflight.py)."""
 
     @property
     def clock(self) -> Clock:

@@ -11,6 +11,8 @@ whole surface takes about a minute on a 2-core machine.
 
 from __future__ import annotations
 
+import math
+import re
 import secrets
 import time
 from collections.abc import Iterator
@@ -20,6 +22,8 @@ import pytest
 import schemathesis
 from hypothesis import HealthCheck, settings
 from schemathesis import Case, CheckContext, Response
+from schemathesis.core.parameters import ParameterLocation
+from schemathesis.generation.meta import negated_parameters
 from schemathesis.specs.openapi.checks import (
     content_type_conformance,
     negative_data_rejection,
@@ -60,7 +64,79 @@ def negative_data_refused(ctx: CheckContext, response: Response, case: Case) -> 
         return None
     if "authorization" not in {name.lower() for name in case.headers or {}}:
         return None  # the negative part is the missing token, which every call here sends
+    if _only_retyped_query_strings(case):
+        return None
     return negative_data_rejection(ctx, response, case)
+
+
+def _only_retyped_query_strings(case: Case) -> bool:
+    """A negative case whose only negative part (the Authorization header aside, which the test
+    replaces) is the query, where every declared parameter
+    still reads as valid once on the wire: a string parameter given a boolean, number or null
+    becomes the text ``false``, ``12`` or ``null``, a valid string (``?drone=false`` names a
+    drone called "false"). schemathesis' own record of what it negated says which parameters
+    when it has one; anything else it negated is still judged."""
+    if case.meta is None:
+        return False
+    negative = {loc for loc, info in case.meta.components.items() if info.mode.is_negative}
+    negated = [
+        (name, loc) for name, loc in negated_parameters(case.meta) if not _sent_by_the_test(name)
+    ]
+    if _header_negated_only_in_authorization(case):
+        negative.discard(ParameterLocation.HEADER)
+    if not negative:
+        return True  # only the Authorization header was negated, and the test sends its own
+    if negative != {ParameterLocation.QUERY} or any(
+        loc != ParameterLocation.QUERY for _, loc in negated
+    ):
+        return False
+    query = case.query or {}
+    return all(
+        _fits_as_text(query[p.name], p.definition.get("schema", {}))
+        for p in case.operation.query
+        if p.name in query
+    )
+
+
+def _sent_by_the_test(name: str) -> bool:
+    """The Authorization header: whatever schemathesis generated for it, every call here carries
+    the test's own bearer token instead (``call_and_validate(headers=...)`` replaces it)."""
+    return name.lower() == "authorization"
+
+
+def _header_negated_only_in_authorization(case: Case) -> bool:
+    """Whether the only header a negative case can have made invalid is the one the test
+    replaces: the operation declares no header parameter, so schemathesis' header negation is of
+    the security scheme's Authorization."""
+    return not list(case.operation.headers)
+
+
+def _fits_as_text(value: object, schema: dict) -> bool:
+    """Whether ``value``, as the text a URL carries, is valid for ``schema``."""
+    if isinstance(value, bool) or value is None:
+        text = {True: "true", False: "false", None: "null"}[value]
+    elif isinstance(value, int | float | str):
+        text = str(value)
+    else:
+        return False  # a list or an object is not one text
+    return any(_text_fits(text, option) for option in schema.get("anyOf", [schema]))
+
+
+def _text_fits(text: str, option: dict) -> bool:
+    kind = option.get("type")
+    if kind == "string":
+        return (
+            option.get("minLength", 0) <= len(text) <= option.get("maxLength", len(text))
+            and re.search(option.get("pattern", ""), text) is not None
+        )
+    if kind in ("integer", "number"):
+        try:
+            number = int(text) if kind == "integer" else float(text)
+        except ValueError:
+            return False
+        low, high = option.get("minimum", -math.inf), option.get("maximum", math.inf)
+        return low <= number <= high
+    return False
 
 
 CHECKS = [

@@ -76,3 +76,37 @@ async def test_mqtt_command_moves_a_mavlink_vehicle_in_another_process(embedded_
                 assert raw["result"]["data"]["custom_mode"] == 4  # GUIDED
                 landed = await op.command("QUAD_MAV", command="land")
                 assert landed["ok"], landed
+
+
+def _system_ids(ports: list[int]) -> list[int]:
+    """A pymavlink station's view: the system id heard on each port."""
+    from pymavlink import mavutil
+
+    seen = []
+    for port in ports:
+        conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=255)
+        try:
+            beat = None
+            for _ in range(20):
+                conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, 8, 0, 0, 0)
+                beat = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+                if beat is not None:
+                    break
+            assert beat is not None, f"nothing heard on {port}"
+            seen.append(beat.get_srcSystem())
+        finally:
+            conn.close()
+    return seen
+
+
+async def test_two_sim_processes_with_sysid_base_never_share_a_system_id():
+    """Issue 10, item 9: two ``dronefleet sim`` processes on one network both started at system
+    id 1; ``--sysid-base`` gives the second its own range, as ArduPilot's MAV_SYSID would."""
+    first, second = free_udp_ports(2), free_udp_ports(2)
+    async with (
+        sim_process(2, first, "--home", HOME_ARG),
+        sim_process(2, second, "--home", HOME_ARG, "--sysid-base", "3"),
+    ):
+        ports = [first, first + 1, second, second + 1]
+        ids = await asyncio.to_thread(_system_ids, ports)
+    assert ids == [1, 2, 3, 4]

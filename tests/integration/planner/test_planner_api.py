@@ -15,9 +15,8 @@ from dronefleet.drone.config import DroneConfig
 from dronefleet.experiments.scenarios import rectangle
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
-from dronefleet.ground.manager.auth import Role, TokenBook
-from dronefleet.ground.services import GroundServices
 from dronefleet.simfleet import SimFleet
+from support.ground_api import ground_clients, heard
 
 pytestmark = pytest.mark.integration
 HOME = LLA(40.63, -8.659, 10.0)
@@ -36,31 +35,9 @@ async def fleet(embedded_broker):
 
 @pytest.fixture
 async def platform(embedded_broker, tmp_path, fleet):
-    ground = GroundServices(
-        embedded_broker,
-        store_url=f"sqlite:///{tmp_path}/t.db",
-        state_path=tmp_path / "g.db",
-        http_port=0,
-        planner_client_id="api-test-planner",
-    )
-    async with ground:
-        viewer = await TokenBook(ground.state).issue("viewer", Role.VIEWER)
-        # 30 s: the first plan starts the planning worker's process, slow on a loaded machine.
-        op = httpx.AsyncClient(
-            base_url=ground.http_url,
-            headers={"Authorization": f"Bearer {ground.operator_token}"},
-            timeout=30,
-        )
-        view = httpx.AsyncClient(
-            base_url=ground.http_url, headers={"Authorization": f"Bearer {viewer}"}, timeout=30
-        )
-        async with op, view:
-            for _ in range(100):
-                fleet_now = (await op.get("/api/v1/drones")).json()
-                if {d["drone_id"] for d in fleet_now} == {"FULL", "LOW"}:
-                    break
-                await asyncio.sleep(0.1)
-            yield op, view
+    ready = heard("FULL", "LOW")
+    async with ground_clients(embedded_broker, tmp_path, "api-test-planner", ready) as clients:
+        yield clients
 
 
 def area(**extra) -> dict:

@@ -11,15 +11,13 @@ import math
 
 import pytest
 
-from dronefleet.experiments.harness import ORIGIN, Harness
+from dronefleet.experiments.harness import Harness
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
-from dronefleet.ground.planner.estimate import estimate
 from dronefleet.ground.planner.models import MissionState
 from dronefleet.ground.planner.options import MissionOptions
-from dronefleet.ground.planner.units import units
-from support.missions import small_field_steps
+from support.missions import fly_early_handover, small_field_steps
 
 pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
 
@@ -60,20 +58,9 @@ async def test_a_drone_done_with_its_share_does_the_missions_end_action(end_acti
 
 async def test_a_drone_handed_over_early_goes_home_and_so_does_its_replacement():
     """Issue 14: the departing drone of a replacement landed in the field (~140 m from home)."""
-    steps = small_field_steps()
-    first13 = [steps[i] for g in units(steps)[:13] for i in g]
     async with Harness(speedup=20) as h:
-        used = estimate(first13, start=ORIGIN, home=ORIGIN, airborne=True).battery_used_pct
-        battery = h.planner.reserve_pct + used + 3.0  # 13 units and the way home, about
-        await h.add_drone("QUAD_A", NED(0, 0), hovering_m=10, battery_pct=battery)
-        await h.add_drone("QUAD_B", NED(77, 70))
-        await h.wait_identified(["QUAD_A", "QUAD_B"])
-        await h.settle()
         options = MissionOptions(collaboration=False)  # early replacement on, home at the end
-        spec = launch.MissionSpec(name="early", drones=["QUAD_A"], steps=steps, options=options)
-        record = await launch.create(h.planner, spec, start=True)
-        record = await h.until_ended(record.mission_id, timeout_s=300)
-        await h.settle(30.0)
+        record = await fly_early_handover(h, options)
         landed = {}
         for drone_id in ("QUAD_A", "QUAD_B"):
             fc = h.fleet.apps[drone_id].fc
@@ -87,6 +74,48 @@ async def test_a_drone_handed_over_early_goes_home_and_so_does_its_replacement()
     taking = record.leg(handover.to_leg)
     assert leaving is not None and taking is not None
     assert [s["command"] for s in leaving.suffix] == ["rtl", "wait_for_flight"]
-    assert [s["command"] for s in taking.suffix] == ["rtl", "wait_for_flight"]
+    # Its way home may fly on a layer above the RTL height (ground/planner/deconflict.py),
+    # the other drone going home too: then a climb there first.
+    commands = [s["command"] for s in taking.suffix]
+    assert commands in (
+        ["rtl", "wait_for_flight"],
+        ["navigate", "wait_for_flight", "rtl", "wait_for_flight"],
+    ), commands
+    if len(commands) == 4:
+        assert taking.suffix[0]["altitude_delta"] > 15.0
     for drone_id, (in_air, from_home) in landed.items():
         assert not in_air and from_home < 3.0, (drone_id, in_air, from_home)
+
+
+@pytest.mark.parametrize("end_action", ["rtl", "land"])
+async def test_a_drone_replaced_on_its_alarm_goes_home_unless_the_mission_lands_there(end_action):
+    """Issue 14: a drone replaced after its CRITICAL alarm landed in the field. With the mission
+    ending RTL (the default) it now goes home; a mission that ends by landing where it is keeps
+    the seed's land-here (as the experiments do)."""
+    steps = small_field_steps(alarm="CRITICAL")  # at the 13th waypoint
+    options = MissionOptions(collaboration=False, early_replacement=False, end_action=end_action)
+    async with Harness(speedup=20) as h:
+        await h.add_drone("QUAD_A", NED(0, 0))
+        await h.add_drone("QUAD_B", NED(-20, 0))
+        await h.wait_identified(["QUAD_A", "QUAD_B"])
+        await h.settle()
+        spec = launch.MissionSpec(name="alarm", drones=["QUAD_A"], steps=steps, options=options)
+        record = await launch.create(h.planner, spec, start=True)
+        record = await h.until_ended(record.mission_id, timeout_s=300)
+        await h.settle(30.0)
+        fc = h.fleet.apps["QUAD_A"].fc
+        offset = lla_to_ned(fc.position(), fc.home())
+        in_air = fc.state().in_air
+
+    assert record.state is MissionState.COMPLETED, record.error
+    (handover,) = record.handovers
+    assert handover.from_drone == "QUAD_A" and handover.to_drone == "QUAD_B"
+    recovery = next(leg for leg in record.legs if leg.role == "recovery")
+    from_home = math.hypot(offset.n, offset.e)
+    assert not in_air
+    if end_action == "rtl":
+        assert [s["command"] for s in recovery.prefix] == ["rtl", "wait_for_flight"]
+        assert from_home < 3.0, offset
+    else:
+        assert [s["command"] for s in recovery.prefix] == ["land", "wait_for_flight"]
+        assert from_home > 10.0, offset

@@ -36,6 +36,9 @@ async def test_mqtt_arm_and_takeoff_reach_the_vehicle_over_uavtalk():
             ):
                 beat = await op.heartbeat("QUAD_UAVT")
                 assert beat["drone_id"] == "QUAD_UAVT"
+                # GPSPosition's Status and Satellites; dRonin estimates no wind: none is sent.
+                assert beat["gps"]["fix"] == "3d" and beat["gps"]["satellites"] == 12, beat
+                assert "wind" not in beat
 
                 armed = await op.command("QUAD_UAVT", command="arm")
                 assert armed["ok"], armed

@@ -53,8 +53,16 @@ def test_the_listing_of_the_seed(capsys, tmp_path):
 
 
 def test_a_whole_config_with_a_listener_and_bad_input_refused():
-    text = bridge_config("D1", "ground", 1884, listener=("127.0.0.1", 1999))
-    assert text.splitlines()[1:3] == ["listener 1999 127.0.0.1", "allow_anonymous true"]
+    files = ("/etc/drone/passwords", "/etc/drone/acl")
+    text = bridge_config("D1", "ground", 1884, listener=("127.0.0.1", 1999), local_users=files)
+    assert text.splitlines()[1:5] == [
+        "listener 1999 127.0.0.1",
+        "allow_anonymous false",
+        "password_file /etc/drone/passwords",
+        "acl_file /etc/drone/acl",
+    ]
+    with pytest.raises(ValueError, match="password and ACL"):
+        bridge_config("D1", "ground", 1884, listener=("127.0.0.1", 1999))
     with pytest.raises(ValueError):
         bridge_config("a/b", "ground")
     with pytest.raises(ValueError):
@@ -64,4 +72,4 @@ def test_a_whole_config_with_a_listener_and_bad_input_refused():
 def test_the_drones_anonymous_listener_is_refused_off_loopback():
     """Issue 12: only the drone's own parts may reach its broker without credentials."""
     with pytest.raises(ValueError, match="loopback"):
-        bridge_config("D1", "ground", 1884, listener=("0.0.0.0", 1999))
+        bridge_config("D1", "ground", 1884, listener=("0.0.0.0", 1999), local_users=("/p", "/a"))

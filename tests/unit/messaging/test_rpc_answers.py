@@ -11,6 +11,8 @@ from dronefleet.messaging.rpc import Requester, RequestTimeout
 class _Broker:
     """Just enough of a BrokerClient: remembers the handler and what was published."""
 
+    persistent_session = False
+
     def __init__(self) -> None:
         self.handler = None
         self.sent: list[tuple[str, dict]] = []

@@ -6,6 +6,7 @@ small tolerance), no waypoint lies outside the area and no flown leg leaves it.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -159,3 +160,22 @@ def test_a_field_with_a_pond_in_the_middle_is_flown_round_the_pond():
         water = Polygon(plan.local_polygon.interiors[0]).buffer(-0.01)
         assert not plan.local_path.intersects(water)
         assert Kind.TRANSIT in plan.kinds or plan.cells >= 3
+
+
+def test_a_spike_the_property_test_found_is_covered_with_one_spur():
+    """Found by test_concave_areas_are_covered: a star's spike 3 m swaths miss. Its spur flies
+    out and back along one line, which GEOS buffered with a hole at the tip; the gap filler then
+    added the same spur in each of its 12 rounds and still reported 0.41 m² uncovered."""
+    star = [(40.62999999982132, -8.657796847462919), (40.6300633178294, -8.657856052834802),
+            (40.63007311322195, -8.657944594702172), (40.63008442389262, -8.657999999999987),
+            (40.630146226416365, -8.658110810716494), (40.63003517659413, -8.658079970613755),
+            (40.62999999996308, -8.658092342062304), (40.629964823350285, -8.658079970529826),
+            (40.62987814456898, -8.658092341894474), (40.629774869619695, -8.657999999999987),
+            (40.62992688675056, -8.65794459482305),
+            (40.62993126597175, -8.657747862308383)]  # fmt: skip
+    spec = AreaSpec(polygon=star, spacing_m=3.0, altitude_m=10, action="takepic", grid="inset")
+    plan = plan_area(spec)
+    check_coverage(plan, 3.0)
+    xy = [p.xy for p in plan.points]
+    spurs_to_the_tip = sum(1 for a, b in itertools.pairwise(xy) if a == b)
+    assert spurs_to_the_tip <= 1, spurs_to_the_tip

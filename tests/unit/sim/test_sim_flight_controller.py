@@ -100,3 +100,17 @@ async def test_telemetry_streams_flat_numbers_at_5_hz_vehicle_time(fc: SimFlight
     assert all(isinstance(value, float) for value in samples[0].values())
     times = [s["vehicle_time_s"] for s in samples]
     assert times[-1] - times[0] == pytest.approx(1.0, abs=0.06)
+
+
+async def test_gps_and_wind_are_what_the_simulated_world_has(world: SimWorld, home: LLA) -> None:
+    from dronefleet.sim.wind import Wind
+    from dronefleet.vehicle.base import GpsFix
+
+    world.add_vehicle("WINDY", home, wind=Wind.from_direction(6.0, 250.0))
+    windy = world.flight_controller("WINDY")
+    await windy.connect()
+    await windy.clock.sleep(0.5)
+    gps = windy.gps()
+    assert gps.fix is GpsFix.FIX_3D and gps.satellites == 12 and gps.hdop == 0.8
+    wind = windy.wind()
+    assert wind.speed_mps == pytest.approx(6.0) and wind.from_deg == pytest.approx(250.0)

@@ -3,8 +3,10 @@
 Tokens are random strings handed out once; the state store keeps only their SHA-256 (a token is
 32 random bytes, so a plain hash is enough). A request carries its token as
 ``Authorization: Bearer <token>`` or ``X-API-Token: <token>``; ``?token=`` only on the live
-stream's WebSocket and the seed's ``/control`` links. Missing or unknown token: 401; a role too
-low: 403.
+stream's WebSocket and the seed's ``/control`` links. The web app instead holds an HttpOnly
+session cookie (``session.py``), opened with a token once. Missing or unknown token: 401; a role
+too low: 403. Other headers (``X-API-Key``, ``Cookie`` values other than the session) are not
+credentials and are ignored, so a request carrying only them is a 401 like one with none.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from starlette.requests import HTTPConnection
 
 from dronefleet.ground.manager.errors import ApiError
 from dronefleet.ground.manager.hardening import AuthThrottle
+from dronefleet.ground.manager.session import CSRF_HEADER, SESSION_COOKIE, SessionBook
 from dronefleet.ground.state import StateStore
 
 
@@ -74,25 +77,41 @@ class TokenBook:
         self.state = state
         self._cache: dict[str, Principal] = {}
         self.throttle = AuthThrottle()
+        self.sessions = SessionBook(state)
 
     async def issue(self, name: str, role: Role, token: str | None = None) -> str:
         """Create (or replace) the token called ``name``; return the token itself."""
         token = token or new_token()
         await self.state.add_token(hash_token(token), name, role.label)
         self._cache.clear()
+        self.sessions.forget()  # a replaced token's sessions end with it
         return token
 
     async def revoke(self, name: str) -> bool:
         self._cache.clear()
+        self.sessions.forget()
         return await self.state.delete_token(name)
 
     async def has_any(self) -> bool:
         return bool(await self.state.list_tokens())
 
     async def principal(self, conn: HTTPConnection, need: Role) -> Principal:
+        """Who makes this request: by its token, else by the web app's session cookie."""
         token = token_from(conn)
-        if not token:
+        if token:
+            principal = await self.by_token(conn, token)
+        elif session := conn.cookies.get(SESSION_COOKIE):
+            principal = await self._by_session(conn, session)
+        else:
             raise ApiError(401, "missing API token: send 'Authorization: Bearer <token>'")
+        if principal.role < need:
+            raise ApiError(
+                403,
+                f"token {principal.name!r} is a {principal.role.label}; this needs {need.label}",
+            )
+        return principal
+
+    async def by_token(self, conn: HTTPConnection, token: str) -> Principal:
         digest = hash_token(token)
         principal = self._cache.get(digest)
         if principal is None:
@@ -105,9 +124,18 @@ class TokenBook:
                 raise ApiError(401, "unknown API token")
             principal = Principal(found[0], Role.parse(found[1]))
             self._cache[digest] = principal
-        if principal.role < need:
-            raise ApiError(
-                403,
-                f"token {principal.name!r} is a {principal.role.label}; this needs {need.label}",
-            )
         return principal
+
+    async def _by_session(self, conn: HTTPConnection, session: str) -> Principal:
+        client = AuthThrottle.client_of(conn.scope)
+        found = await self.sessions.find(session)
+        if found is None:
+            if self.throttle.blocked(client):
+                raise ApiError(429, "too many unknown sessions from this client; wait a minute")
+            self.throttle.failed(client)
+            raise ApiError(401, "the sign-in session has ended: sign in again with a token")
+        method = conn.scope.get("method", "GET")
+        if method not in ("GET", "HEAD", "OPTIONS") and CSRF_HEADER not in conn.headers:
+            # A cookie rides along with any request the browser makes, a forged one included.
+            raise ApiError(403, f"a signed-in change needs the {CSRF_HEADER} header")
+        return Principal(found[0], Role.parse(found[1]))

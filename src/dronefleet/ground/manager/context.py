@@ -5,13 +5,14 @@ from dataclasses import dataclass
 from typing import Annotated, Any
 
 from fastapi import Depends, Request
-from fastapi.security import HTTPBearer
+from fastapi.security import APIKeyCookie, HTTPBearer
 from starlette.requests import HTTPConnection
 
 from dronefleet.errors import DronefleetError, NoAnswer
 from dronefleet.ground.manager.auth import Principal, Role, TokenBook
 from dronefleet.ground.manager.errors import status_of
 from dronefleet.ground.manager.gateway import DroneGateway
+from dronefleet.ground.manager.session import SESSION_COOKIE
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.store import TelemetryStore
 from dronefleet.messaging.rpc import RequestTimeout
@@ -34,11 +35,20 @@ def ctx_of(conn: HTTPConnection) -> ManagerContext:
 #: token in ``Authorization``. FastAPI's HTTPBearer only declares it here (``auto_error=False``);
 #: the token is checked by the TokenBook, which answers 401/403/429 with the reason.
 BEARER = HTTPBearer(auto_error=False, description="an API token: `Authorization: Bearer <token>`")
+#: The web app's alternative: the HttpOnly session cookie that ``POST /api/v1/session`` sets.
+SESSION = APIKeyCookie(
+    name=SESSION_COOKIE,
+    auto_error=False,
+    description="the web app's sign-in session (set by POST /api/v1/session); changes also "
+    "need the X-Requested-With header",
+)
 
 
 def _needs(role: Role) -> Callable[..., Awaitable[Principal]]:
     async def dependency(
-        request: Request, _declared: Annotated[object, Depends(BEARER)] = None
+        request: Request,
+        _declared: Annotated[object, Depends(BEARER)] = None,
+        _session: Annotated[object, Depends(SESSION)] = None,
     ) -> Principal:
         return await ctx_of(request).tokens.principal(request, role)
 

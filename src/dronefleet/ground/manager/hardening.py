@@ -56,6 +56,7 @@ _HEADERS = [
     (b"referrer-policy", b"no-referrer"),
 ]
 _CREDENTIALS = (b"authorization", b"x-api-token")
+_SESSION = b"dronefleet_session="  # the web app's session cookie (manager/session.py)
 
 
 class BodyTooLarge(InvalidInput):
@@ -105,8 +106,10 @@ class Hardening:
         headers = dict(scope.get("headers") or [])
         length = _content_length(headers)
         has_body = (length is not None and length > 0) or b"transfer-encoding" in headers
-        token_sent = any(h in headers for h in _CREDENTIALS) or b"token=" in scope.get(
-            "query_string", b""
+        token_sent = (
+            any(h in headers for h in _CREDENTIALS)
+            or b"token=" in scope.get("query_string", b"")
+            or _SESSION in headers.get(b"cookie", b"")
         )
         if has_body and not token_sent:
             await _refuse(send, 401, "missing API token: send 'Authorization: Bearer <token>'")

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, RootModel
 
 
 class _Open(BaseModel):
@@ -35,6 +35,11 @@ class Drone(_Open):
     mission_id: str | None = None
     step_index: int | None = None
     flight: dict[str, Any] | None = None
+    ground_speed_mps: float | None = None
+    gps: dict[str, Any] | None = Field(default=None, description="fix and satellites")
+    wind: dict[str, Any] | None = Field(
+        default=None, description="the autopilot's wind estimate; absent: unknown"
+    )
     vehicle_time_s: float | None = None
     specs: dict[str, Any] | None = None
     sensors: dict[str, Any] | None = None
@@ -118,7 +123,22 @@ class Revoked(BaseModel):
 
 
 class WebConfig(BaseModel):
-    tiles: str | None = None
+    tiles: str | None = Field(default=None, description="the map's tile URL template, or none")
+    local_tiles: bool = Field(
+        default=False, description="tiles from this ground's MBTiles file: ask with credentials"
+    )
+
+
+class Binary(RootModel[str]):
+    """A file's bytes, not JSON: an image (a map tile, a picture) or a zip."""
+
+    model_config = ConfigDict(json_schema_extra={"format": "binary"})
+
+
+def binary(*media_types: str) -> dict[int | str, dict[str, Any]]:
+    """A route's 200 as files of these media types, with a named schema (issue 15)."""
+    schema = {"schema": {"$ref": "#/components/schemas/Binary"}}
+    return {200: {"model": Binary, "content": {media: schema for media in media_types}}}
 
 
 class Me(BaseModel):
@@ -130,6 +150,11 @@ class Me(BaseModel):
 class Health(BaseModel):
     ok: bool
     version: str
+    dropped_messages: dict[str, int] = Field(
+        default_factory=dict,
+        description="broker messages the ground refused since it started, by kind: malformed, "
+        "or about another drone than their topic's (counted, never acted upon)",
+    )
 
 
 class MissionLog(_Open):

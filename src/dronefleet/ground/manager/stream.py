@@ -2,7 +2,8 @@
 
 One :class:`StreamHub` per server listens on the ground broker and fans every message out to the
 connected WebSockets as ``{"kind", "drone_id", "topic", "data"}``. A client may narrow the stream
-with ``?drone=ID`` and ``?kinds=heartbeat,telemetry,progress,alarm,fleet``. A slow client loses
+with ``?drone=ID`` and ``?kinds=heartbeat,telemetry,progress,alarm,fleet``. The separation
+monitor's alarms (``ground/separation/alarms``) come as ``alarm`` too. A slow client loses
 its oldest messages rather than holding up the others.
 """
 
@@ -26,7 +27,13 @@ from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import MissionProgress
 from dronefleet.messaging.status import Alarm, Heartbeat, Telemetry
-from dronefleet.messaging.topics import PLANNER_EVENTS, Channel, any_drone, parse
+from dronefleet.messaging.topics import (
+    PLANNER_EVENTS,
+    SEPARATION_ALARMS,
+    Channel,
+    any_drone,
+    parse,
+)
 
 log = logging.getLogger(__name__)
 _throttle = LogThrottle(log)
@@ -79,6 +86,7 @@ class StreamHub:
             await self.client.subscribe(any_drone(channel), self._on_message, qos=qos)
         await self.client.subscribe(EVENTS_TOPIC, self._on_message, qos=QOS_STREAM)
         await self.client.subscribe(PLANNER_EVENTS_TOPIC, self._on_message, qos=QOS_STREAM)
+        await self.client.subscribe(SEPARATION_ALARMS, self._on_message, qos=1)
         await self.client.start()
         return self
 
@@ -108,6 +116,9 @@ def _read(topic_name: str, payload: bytes) -> tuple[str, str | None, dict[str, A
         mission = parse_message(PlannerEvent, payload)
         data = mission.model_dump(mode="json", exclude_none=True)
         return "mission", data.get("drone_id"), data
+    if topic_name == SEPARATION_ALARMS:  # the ground's separation monitor, about two drones
+        alarm = parse_message(Alarm, payload)
+        return "alarm", alarm.drone_id, alarm.model_dump(mode="json", exclude_none=True)
     where = parse(topic_name)
     msg = parse_message(MODELS[where.channel], payload)
     speaks_for_itself(topic_name, msg.drone_id)

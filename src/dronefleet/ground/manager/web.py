@@ -2,7 +2,9 @@
 
 The pages are plain HTML/CSS/JS from ``dronefleet/web`` in the installed package; the third-party
 libraries (Leaflet, Chart.js) are copied from npm into ``web/vendor/`` by ``scripts/web-deps.sh``.
-``/api/v1/web/config`` tells the pages which map tiles to use (none: an offline grid).
+``/api/v1/web/config`` tells the pages which map tiles to use: a tile server's URL template, the
+ground's own MBTiles tiles (``local_tiles``: fetched with credentials, metadata at
+``/api/v1/tiles``), or none (an offline grid).
 """
 
 import mimetypes
@@ -18,6 +20,7 @@ from starlette.types import Scope
 
 from dronefleet.ground.manager.context import Viewer
 from dronefleet.ground.manager.errors import ApiError, answers
+from dronefleet.ground.manager.maps import TILE_TEMPLATE
 from dronefleet.ground.manager.schemas import Me, WebConfig
 
 WEB_ROOT = Path(__file__).resolve().parents[2] / "web"
@@ -76,7 +79,9 @@ async def call_page() -> RedirectResponse:
     response_model=WebConfig,
 )
 async def web_config(request: Request) -> dict[str, Any]:
-    return {"tiles": getattr(request.app.state, "web_tiles", None)}
+    if getattr(request.app.state, "mbtiles", None) is not None:
+        return {"tiles": TILE_TEMPLATE, "local_tiles": True}
+    return {"tiles": getattr(request.app.state, "web_tiles", None), "local_tiles": False}
 
 
 @router.get(

@@ -1,24 +1,26 @@
 """The Mission Planner's REST API: ``/api/v1/missions`` and the call-a-drone endpoint.
 
-Create (optionally start), preview (waypoints, time and battery per drone), start, stop, pause,
-resume, abort (every drone home), list, get, the mission log (JSON, downloadable) and what the
-drones measured (GeoJSON or CSV). Refusals are 4xx with the reason; nothing changes."""
+Create (optionally start), preview (waypoints, time and battery per drone), the pre-flight
+checklist (ground/planner/preflight.py, also run by every start), start, stop, pause, resume,
+abort (every drone home), list, get, the mission log (JSON, downloadable) and what the drones
+measured (GeoJSON or CSV). Refusals are 4xx with the reason; nothing changes."""
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import JSONResponse, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.errors import Unavailable
-from dronefleet.ground.manager.context import Operator, Viewer, audited
+from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
 from dronefleet.ground.manager.errors import answers
 from dronefleet.ground.manager.schemas import MissionLog
-from dronefleet.ground.planner import launch, measurements
-from dronefleet.ground.planner.launch import MissionSpec
+from dronefleet.ground.planner import launch, measurements, preflight
 from dronefleet.ground.planner.mission_log import build_log
+from dronefleet.ground.planner.mission_spec import MissionSpec
+from dronefleet.ground.planner.preflight import PreflightReport
 from dronefleet.ground.planner.schemas import MissionDetail, MissionSummary, Preview, Readings
 from dronefleet.ground.planner.service import MissionPlanner
 
@@ -73,19 +75,59 @@ async def preview(request: Request, spec: MissionSpec, who: Operator) -> Preview
 
 
 @router.post(
+    "/missions/preflight",
+    summary="The pre-flight checklist: each drone's battery, GPS, link, sensors, fence and wind",
+    responses=PLANNING,
+)
+async def preflight_checks(request: Request, spec: MissionSpec, who: Operator) -> PreflightReport:
+    planner = planner_of(request)
+    params = {"name": spec.name, "drones": spec.drones}
+    call = preflight.preflight(planner, spec)
+    return await _guard(request, who, "mission.preflight", params, call)
+
+
+#: An operator's reason to fly although a pre-flight check failed (audited).
+Override = Annotated[
+    str | None,
+    Query(
+        min_length=3,
+        max_length=500,
+        description="fly although pre-flight checks failed; the reason, kept in the audit log",
+    ),
+]
+
+
+def _gate(request: Request, who: Any, mission: str, override: str | None) -> launch.Gate:
+    """The pre-flight checklist a start must pass; an override is audited with what it
+    overrode."""
+
+    async def overridden(failures: list[str]) -> None:
+        params = {"mission": mission, "reason": override, "failed": failures}
+        await ctx_of(request).gateway.audit(
+            who, None, "mission.preflight_override", params, 200, {"ok": True}
+        )
+
+    return preflight.gate(planner_of(request), override, overridden)
+
+
+@router.post(
     "/missions",
     status_code=201,
-    summary="Create a mission (start it with ?start=true)",
+    summary="Create a mission (start it with ?start=true, after the pre-flight checklist)",
     responses=PLANNING,
 )
 async def create(
-    request: Request, spec: MissionSpec, who: Operator, start: bool = Query(default=False)
+    request: Request,
+    spec: MissionSpec,
+    who: Operator,
+    start: bool = Query(default=False),
+    override: Override = None,
 ) -> MissionSummary:
     planner = planner_of(request)
-    params = {"name": spec.name, "drones": spec.drones, "start": start}
-    record = await _guard(
-        request, who, "mission.create", params, launch.create(planner, spec, start=start)
-    )
+    params = {"name": spec.name, "drones": spec.drones, "start": start, "override": override}
+    gate = _gate(request, who, spec.name or "(new)", override)
+    call = launch.create(planner, spec, start=start, gate=gate)
+    record = await _guard(request, who, "mission.create", params, call)
     return MissionSummary.model_validate(record.summary())
 
 
@@ -99,11 +141,18 @@ async def get(request: Request, mission_id: str, who: Viewer) -> MissionDetail:
     )
 
 
-@router.post("/missions/{mission_id}/start", summary="Start a planned mission", responses=PLANNING)
-async def start(request: Request, mission_id: str, who: Operator) -> MissionSummary:
+@router.post(
+    "/missions/{mission_id}/start",
+    summary="Start a planned mission (after the pre-flight checklist)",
+    responses=PLANNING,
+)
+async def start(
+    request: Request, mission_id: str, who: Operator, override: Override = None
+) -> MissionSummary:
     planner = planner_of(request)
-    call = launch.start(planner, mission_id)
-    record = await _guard(request, who, "mission.start", {"mission_id": mission_id}, call)
+    call = launch.start(planner, mission_id, gate=_gate(request, who, mission_id, override))
+    params = {"mission_id": mission_id, "override": override}
+    record = await _guard(request, who, "mission.start", params, call)
     return MissionSummary.model_validate(record.summary())
 
 

@@ -16,12 +16,15 @@ from typing import Any
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner import allocation
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area, rebuild, seed_grid_rebuild
+from dronefleet.ground.planner.deconflict import Share
 from dronefleet.ground.planner.ends import end_steps
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import preparation
 from dronefleet.ground.planner.models import Expansion, LatLon, Leg, LegState, MissionRecord
 from dronefleet.ground.planner.ops import PlannerOps
 from dronefleet.ground.planner.options import LegRole
+from dronefleet.ground.planner.separation import SeparationConflict
+from dronefleet.ground.planner.traffic import keep_apart
 from dronefleet.ground.planner.units import units
 from dronefleet.messaging.status import Alarm
 
@@ -79,18 +82,15 @@ async def extend(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: Al
         offset = len(record.work)
         record.work.extend(new_work)
         new_indices = list(range(offset, offset + len(new_work)))
-        record.required = [i for i in record.required_indices() if i in record.done] + new_indices
-        record.area = new_spec
         groups = [[i + offset for i in g] for g in units(new_work)]
+        shares: dict[str, list[int]] = {}
         expansion.area_factor = factor
         expansion.joined = [d.drone_id for d in joiners]
         expansion.waypoints, expansion.area_m2 = covered["waypoints"], covered["area_m2"]
         expansion.assignments = {a.drone_id: len(a.waypoint_indices) for a in assignments}
         altitude = new_spec.altitude_m
         members = {a.drone_id for a in assignments if a.waypoint_indices}
-        for old in record.active_legs():
-            if old.drone_id not in members:  # its share of the old area is superseded
-                await planner.stop_leg(old, state=LegState.REPLACED)
+        planned: list[Share] = []
         for offset_m, assignment in zip(
             allocation.altitude_offsets(len(assignments)), assignments, strict=False
         ):
@@ -98,27 +98,50 @@ async def extend(planner: PlannerOps, record: MissionRecord, leg: Leg, alarm: Al
             if not assignment.waypoint_indices:
                 continue
             indices = [i for w in assignment.waypoint_indices for i in groups[w]]
-            for old in record.active_legs():
-                if old.drone_id == drone.drone_id:
-                    old.state = LegState.REPLACED
             prefix = preparation(drone, altitude + offset_m, strategy=strategy)
             if drone.drone_id == leg.drone_id:
                 prefix = []  # already up there, at the alarm point
+            work = [record.work[i] for i in indices]
+            end = end_steps(record.options.end_action, [*prefix, *work])
+            planned.append(
+                Share(
+                    drone.drone_id, prefix, work, end, drone.position, drone.home,
+                    drone.airborne or drone.drone_id == leg.drone_id, drone.flight,
+                )
+            )  # fmt: skip
+            shares[drone.drone_id] = indices
+        try:  # the team kept apart from each other and from everyone else in the air
+            placed = await keep_apart(planner, fleet, planned)
+        except SeparationConflict as exc:
+            del record.work[offset:]
+            expansion.error = str(exc)
+            await planner.save(record)
+            log.warning("mission %s not extended: %s", record.mission_id, exc)
+            return
+        record.required = [i for i in record.required_indices() if i in record.done] + new_indices
+        record.area = new_spec
+        for old in record.active_legs():
+            if old.drone_id not in members:  # its share of the old area is superseded
+                await planner.stop_leg(old, state=LegState.REPLACED)
+        for place in placed:
+            for old in record.active_legs():
+                if old.drone_id == place.drone_id:
+                    old.state = LegState.REPLACED
             await planner.send_leg(
                 record,
                 Leg(
                     leg_id=planner.next_leg_id(record),
-                    drone_id=drone.drone_id,
+                    drone_id=place.drone_id,
                     role=LegRole.PRIMARY
-                    if drone.drone_id == leg.drone_id
+                    if place.drone_id == leg.drone_id
                     else LegRole.COLLABORATOR,
-                    prefix=prefix,
-                    indices=indices,
-                    suffix=end_steps(
-                        record.options.end_action, [*prefix, *(record.work[i] for i in indices)]
-                    ),
+                    prefix=place.prefix,
+                    indices=shares[place.drone_id],
+                    suffix=place.end,
                 ),
             )
+            if place.notes:
+                log.info("mission %s: %s", record.mission_id, "; ".join(place.notes))
         await planner.save(record)
     planner.emit("expansion", mission_id=record.mission_id, **expansion.model_dump(mode="json"))
     log.info("mission %s extended: %s", record.mission_id, expansion)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dronefleet.geo.types import LLA
+from dronefleet.ground.planner.deconflict import Share
 from dronefleet.ground.planner.ends import GO_HOME, EndAction, end_steps
 from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView
@@ -31,6 +32,8 @@ from dronefleet.ground.planner.models import (
 from dronefleet.ground.planner.ops import PlannerOps
 from dronefleet.ground.planner.options import LegRole
 from dronefleet.ground.planner.replacement import camera_state, pick
+from dronefleet.ground.planner.separation import SeparationConflict
+from dronefleet.ground.planner.traffic import keep_apart
 from dronefleet.ground.planner.units import remaining, units
 from dronefleet.messaging.commands import Command
 
@@ -107,6 +110,25 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
     chosen, prefix, kept, rest = decision.chosen, decision.prefix, decision.kept, decision.rest
     keep, t_old, t_new, leave_at = decision.keep, decision.t_old, decision.t_new, decision.leave_at
     groups = decision.units
+    way_out = leaving_steps(record.options.end_action)
+    new_end = end_steps(record.options.end_action, [record.work[i] for i in rest])
+    if rest:
+        # The newcomer is kept clear of the drone it relieves (its last units, then its way
+        # out) and of everyone else; if it cannot be, the handover waits for the next step.
+        relieved = Share(
+            leg.drone_id, [], [record.work[i] for i in kept], way_out, here, drone.home, True,
+            drone.flight,
+        )  # fmt: skip
+        arriving = Share(
+            chosen.drone_id, prefix, [record.work[i] for i in rest], new_end, chosen.position,
+            chosen.home, chosen.airborne, chosen.flight,
+        )  # fmt: skip
+        try:
+            (placed,) = await keep_apart(planner, fleet, [arriving], also=[relieved])
+        except SeparationConflict as exc:
+            log.warning("mission %s: early handover not yet: %s", record.mission_id, exc)
+            return
+        prefix, new_end = placed.prefix, placed.end
     async with planner.lock:
         if not leg.active or record.terminal:
             return
@@ -116,7 +138,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
             drone_id=leg.drone_id,
             role=LegRole.LEAVING,
             indices=kept,
-            suffix=leaving_steps(record.options.end_action),
+            suffix=way_out,
         )
         record.legs.append(leaving)  # sent below, once the whole decision is written
         trigger = camera_state(record, leg)
@@ -128,7 +150,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
             role=LegRole.REPLACEMENT,
             prefix=prefix,
             indices=rest,
-            suffix=end_steps(record.options.end_action, [record.work[i] for i in rest]),
+            suffix=new_end,
         )
         handover = Handover(
             kind=HandoverKind.EARLY,

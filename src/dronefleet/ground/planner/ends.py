@@ -21,8 +21,14 @@ _AFTER_LANDING = {Command.WAIT_FOR_FLIGHT, Command.DISARM, Command.SLEEP}
 _LANDS = {Command.LAND, Command.RTL}
 
 
-#: A drone sent home: aborting a mission, or a lost drone heard again (ground/planner/lost.py).
-GO_HOME = ({"command": Command.RTL.value}, {"command": Command.WAIT_FOR_FLIGHT.value})
+#: A drone sent home early: aborting a mission, a lost drone heard again (ground/planner/lost.py),
+#: a drone handed over early (early.py). It lands at the nearest of the mission's rally points
+#: when one is nearer than home (``rally``: chosen by the drone from where it really is, drone/
+#: navigation.py), else at home.
+GO_HOME = (
+    {"command": Command.RTL.value, "rally": True},
+    {"command": Command.WAIT_FOR_FLIGHT.value},
+)
 
 
 def ends_on_the_ground(steps: list[dict[str, Any]]) -> bool:

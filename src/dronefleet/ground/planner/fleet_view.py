@@ -62,12 +62,16 @@ class FleetView:
         self.timeout_s = timeout_s
         self.reply_topic = ground("planner", secrets.token_hex(4), "identifier")
 
-    async def drones(self) -> list[DroneView]:
+    async def records(self) -> list[dict[str, Any]]:
+        """Every drone as the Drone Identifier publishes it (liveness, gear, GPS, wind...)."""
         message = {**identifier_query("discover"), "reply_to": self.reply_topic}
         answer = await self.requester.request(
             QUERY_TOPIC, self.reply_topic, message, timeout_s=self.timeout_s
         )
-        views = (DroneView.from_public(d) for d in answer.get("drones") or [])
+        return [d for d in answer.get("drones") or [] if isinstance(d, dict)]
+
+    async def drones(self) -> list[DroneView]:
+        views = (DroneView.from_public(d) for d in await self.records())
         return [v for v in views if v is not None]
 
     async def drone(self, drone_id: str) -> DroneView | None:

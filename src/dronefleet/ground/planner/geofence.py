@@ -7,6 +7,8 @@ straight home). Every point must be inside the inclusion polygon and at or under
 every straight leg between two points inside the inclusion polygon and clear of every
 exclusion. A share that is not is refused with the drone, the step and where (REST 422);
 nothing changes. The fence then goes with each leg to its drone, which keeps to it in flight.
+Rally points (where a drone sent home early may land) must lie inside the fence too
+(:func:`check_rally`): a drone sent to one must not breach the fence on arrival.
 """
 
 from __future__ import annotations
@@ -17,9 +19,9 @@ from typing import Any
 from dronefleet.errors import InvalidInput
 from dronefleet.geo.types import LLA
 from dronefleet.messaging.commands import Command
-from dronefleet.messaging.fence import FenceShape, Geofence
+from dronefleet.messaging.fence import FenceShape, Geofence, RallyPoint
 
-__all__ = ["FenceBreach", "Geofence", "check_share"]
+__all__ = ["FenceBreach", "Geofence", "check_rally", "check_share"]
 
 
 class FenceBreach(InvalidInput, ValueError):
@@ -62,6 +64,24 @@ def check_share(
         why = shape.leg_breach(a, b)
         if why is not None:
             raise FenceBreach(f"fence: {drone_id} flying from {came} to {went} {why}")
+
+
+def check_rally(fence: Geofence | None, points: list[RallyPoint]) -> None:
+    """Raise :class:`FenceBreach` naming the first rally point outside ``fence`` (outside its
+    inclusion polygon, in an exclusion zone, or to be flown to above its ceiling)."""
+    if fence is None or not points:
+        return
+    shape = FenceShape(fence, LLA(points[0].lat, points[0].lon))
+    for k, point in enumerate(points):
+        ground = LLA(point.lat, point.lon, 0.0)  # heights here are above home: home at 0 m
+        why = shape.breach(LLA(point.lat, point.lon, point.alt_m), ground)
+        if why is not None:
+            where = f"{point.lat:.6f}, {point.lon:.6f}"
+            raise FenceBreach(
+                f"fence: rally point {k + 1} at {where} is {why}"
+                if why.startswith(("outside", "inside"))
+                else f"fence: rally point {k + 1} at {where} is flown to {why}"
+            )
 
 
 def _above(height: Any, fence: Geofence) -> bool:

@@ -9,104 +9,37 @@ left (energy estimated from the vehicle model). A refused mission changes nothin
 from __future__ import annotations
 
 import secrets
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import ValidationError
 
 from dronefleet.errors import Conflict, NotFound
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner import allocation
-from dronefleet.ground.planner.bounds import AreaRequest
-from dronefleet.ground.planner.coverage import AreaSpec, plan_area
+from dronefleet.ground.planner.coverage import AreaSpec
+from dronefleet.ground.planner.deconflict import Share, separate
 from dronefleet.ground.planner.ends import end_steps
 from dronefleet.ground.planner.estimate import VehicleModel, can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
-from dronefleet.ground.planner.geofence import FenceBreach, check_share
+from dronefleet.ground.planner.geofence import FenceBreach, check_rally, check_share
 from dronefleet.ground.planner.legs import mission_altitude, preparation
+from dronefleet.ground.planner.mission_spec import (
+    MissionSpec,
+    check_altitudes,
+    self_prepared,
+    work_of,
+)
 from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
 from dronefleet.ground.planner.options import MissionOptions, RecordOptions, Strategy
+from dronefleet.ground.planner.separation import SeparationConflict
 from dronefleet.ground.planner.service import MissionPlanner, PlannerError
+from dronefleet.ground.planner.step_order import check_order
+from dronefleet.ground.planner.traffic import traffic
 from dronefleet.ground.planner.units import units
-from dronefleet.messaging.codec import MessageError
-from dronefleet.messaging.commands import Command, parse_step
+from dronefleet.messaging.commands import Command
 from dronefleet.messaging.common import reason
-
-if TYPE_CHECKING:
-    # Code may give any AreaSpec; MissionSpec re-checks it against the request bounds.
-    AreaField = AreaSpec | None
-else:
-    AreaField = AreaRequest | None  # what a request is validated (and documented) as
-
-
-class MissionSpec(BaseModel):
-    """What a person (or the web planner) asks for."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    name: str = Field(default="", max_length=200)
-    mission_id: str | None = Field(default=None, pattern=r"^[A-Za-z0-9_\-]{1,64}$")
-    drones: list[str] = Field(default_factory=list, max_length=50)
-    steps: list[dict[str, Any]] | None = Field(default=None, max_length=10_000)
-    area: AreaField = None
-    options: MissionOptions = Field(default_factory=MissionOptions)
-
-    @field_validator("area", mode="before")
-    @classmethod
-    def _bounded(cls, value: object) -> object:
-        """An AreaSpec built in code is checked against the request bounds too."""
-        if isinstance(value, AreaSpec) and not isinstance(value, AreaRequest):
-            return value.model_dump()
-        return value
-
-
-def _plan(area: AreaSpec) -> Any:
-    """The coverage plan of ``area``; the coverage planner's refusals (ValueError: a polygon that
-    is not simple or has no area, a hole outside it, too many waypoints...) are the caller's
-    input that cannot be planned, so a 422 with the planner's reason."""
-    try:
-        return plan_area(area)
-    except ValueError as exc:
-        raise PlannerError(f"area: {exc}") from exc
-
-
-def work_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
-    """The work steps (validated) and the coverage plan (for areas).
-
-    An area alone gives its generated steps; steps alone are flown as given; both together fly
-    the given steps (an edited waypoint list) and keep the area for a collaborative extension.
-    """
-    if spec.steps is None and spec.area is None:
-        raise PlannerError("give 'steps', 'area', or both")
-    plan = _plan(spec.area) if spec.area is not None else None
-    if spec.steps is None:
-        assert plan is not None  # an area was given
-        return plan.mission_steps(), plan
-    steps = []
-    for i, step in enumerate(spec.steps):
-        try:
-            steps.append(parse_step(step).model_dump(mode="json", exclude_none=True))
-        except MessageError as exc:
-            raise PlannerError(f"step {i}: {exc}") from exc
-    if not steps:
-        raise PlannerError("a mission needs at least one step")
-    return steps, plan
-
-
-def check_altitudes(work: list[dict[str, Any]], limit_m: float) -> None:
-    for i, step in enumerate(work):
-        height = step.get("altitude_delta") if step.get("command") == Command.NAVIGATE else None
-        if step.get("command") == Command.TAKEOFF:
-            height = step.get("value")
-        if height is not None and height > limit_m:
-            raise PlannerError(
-                f"step {i} ({step['command']}) goes to {height:g} m, above the {limit_m:g} m limit"
-            )
-
-
-def self_prepared(work: list[dict[str, Any]]) -> bool:
-    """A step list that arms and takes off by itself needs no preparation prefix."""
-    return any(s.get("command") in (Command.ARM, Command.TAKEOFF) for s in work)
 
 
 @dataclass(frozen=True)
@@ -126,11 +59,17 @@ def plan_mission(
     busy: set[str],
     reserve_pct: float,
     max_altitude_m: float,
+    others: list[Share] | None = None,
 ) -> Planned:
-    """The whole CPU part of planning: coverage, split, estimates (runs in a worker process)."""
+    """The whole CPU part of planning: coverage, split, separation from ``others`` (the drones
+    already flying: ground/planner/traffic.py), estimates (runs in a worker process)."""
     work, plan = work_of(spec)
     check_altitudes(work, max_altitude_m)
-    shares = assign(spec, work, plan, fleet, busy, reserve_pct)
+    try:
+        check_rally(spec.options.geofence, spec.options.rally_points)
+    except FenceBreach as exc:
+        raise PlannerError(str(exc)) from exc
+    shares = assign(spec, work, plan, fleet, busy, reserve_pct, others or [], max_altitude_m)
     coverage = {
         "waypoints": [{"lat": p.lat, "lon": p.lon} for p in plan.waypoints] if plan else [],
         "area_m2": round(plan.area_m2, 1) if plan else None,
@@ -142,12 +81,19 @@ def plan_mission(
     )
 
 
-async def planned(planner: MissionPlanner, spec: MissionSpec) -> Planned:
-    """Plan ``spec`` for the fleet as it is now, off the event loop and within the budget."""
-    fleet = {d.drone_id: d for d in await planner.fleet.drones()}
+async def planned(
+    planner: MissionPlanner, spec: MissionSpec, records: list[dict[str, Any]] | None = None
+) -> Planned:
+    """Plan ``spec`` for the fleet as it is now (``records``: the Drone Identifier's, when the
+    caller has them), off the event loop and within the budget."""
+    if records is None:
+        records = await planner.fleet.records()
+    views = (DroneView.from_public(d) for d in records)
+    fleet = {d.drone_id: d for d in views if d is not None}
+    others = traffic(planner.missions.values(), fleet.values(), exclude=set())
     return await planner.worker.run(
         plan_mission, spec, fleet, planner.busy_drones(), planner.reserve_pct,
-        planner.max_altitude_m,
+        planner.max_altitude_m, others,
     )  # fmt: skip
 
 
@@ -182,9 +128,12 @@ def assign(
     fleet: dict[str, DroneView],
     busy: set[str],
     reserve_pct: float,
+    others: list[Share] | None = None,
+    max_altitude_m: float | None = None,
 ) -> list[tuple[DroneView, list[dict[str, Any]], list[int], list[dict[str, Any]], dict[str, Any]]]:
-    """Which drone flies which steps, with its preparation, its end (ground/planner/ends.py) and
-    its estimate (the way home included); refuses with reasons."""
+    """Which drone flies which steps, with its preparation, its end (ground/planner/ends.py),
+    kept apart from each other and from ``others`` (ground/planner/deconflict.py), and its
+    estimate (the way home included); refuses with reasons."""
     chosen = _chosen(spec, work, fleet, busy)
     altitude = mission_altitude(work, spec.area.altitude_m if spec.area else 10.0)
     strategy = spec.options.strategy
@@ -212,33 +161,59 @@ def assign(
     # An autopilot flying the mission on board completes NAV_TAKEOFF before its first waypoint
     # (ArduPilot's AUTO): the preparation says so, as the seed's does, and the estimate follows.
     prepare = "seed" if spec.options.onboard else strategy
-    result = []
+    planned: list[Share] = []
     for drone, indices in shares:
         prefix = [] if self_prepared(work) else preparation(drone, altitude, strategy=prepare)
         steps = prefix + [work[i] for i in indices]
         end = end_steps(spec.options.end_action, steps)
-        steps += end
+        # Flown in this order from the drone's state now (ground/planner/step_order.py); a
+        # refusal names the step by its index in the work list (the caller's step list).
+        check_order(
+            steps + end,
+            airborne=drone.airborne,
+            armed=drone.state == "armed",
+            index_of=[None] * len(prefix) + list(indices) + [None] * len(end),
+        )
+        planned.append(
+            Share(
+                drone.drone_id, prefix, [work[i] for i in indices], end, drone.position,
+                drone.home, drone.airborne, drone.flight,
+            )
+        )  # fmt: skip
+    for share, (drone, _) in zip(planned, shares, strict=True):
+        _can_fly(
+            spec, fleet, busy, chosen, drone, share.prefix + share.work + share.end, reserve_pct
+        )
+    fence = spec.options.geofence
+    ceilings = [c for c in (max_altitude_m, fence.ceiling_m if fence else None) if c is not None]
+    mine = {d.drone_id for d, _ in shares}
+    try:
+        placed = separate(
+            planned,
+            [t for t in others or [] if t.drone_id not in mine],
+            ceiling_m=min(ceilings) if ceilings else None,
+        )
+    except SeparationConflict as exc:
+        raise PlannerError(str(exc)) from exc
+    result = []
+    for (drone, indices), place in zip(shares, placed, strict=True):
+        prefix, end = place.prefix, place.end
+        steps = prefix + [work[i] for i in indices] + end
         if spec.options.geofence is not None:
             try:
                 check_share(
                     spec.options.geofence, drone.drone_id, drone.position, drone.home, steps,
                     returns_home=spec.options.end_action == "rtl",
                 )  # fmt: skip
-            except FenceBreach as exc:
-                raise PlannerError(str(exc)) from exc
-        est = estimate(
-            steps,
-            start=drone.position,
-            home=drone.home,
-            airborne=drone.airborne,
-            battery_pct=drone.battery_pct,
-            model=VehicleModel.of_vehicle(drone.flight),  # its own autopilot's figures
-        )
-        ok, why = can_finish(est, reserve_pct=reserve_pct)
-        if not ok and not _relief_exists(spec, fleet, busy, chosen, est):
-            raise PlannerError(f"drone {drone.drone_id} cannot finish its share: {why}")
-        if not ok:
-            est.notes.append(f"handed over in flight: {why}")
+            except FenceBreach as exc:  # tagged: the pre-flight checklist shows it as its check
+                raise PlannerError(str(exc), check="fence", drone_id=drone.drone_id) from exc
+        est, ok, why = _can_fly(spec, fleet, busy, chosen, drone, steps, reserve_pct)
+        est.notes.extend(place.notes)
+        if not ok:  # never a battery left below the reserve without saying what happens
+            est.notes.append(
+                f"handed over in flight: {why}; an idle drone takes over the rest before the"
+                f" reserve (early replacement)"
+            )
         result.append(
             (
                 drone,
@@ -256,6 +231,37 @@ def assign(
     return result
 
 
+def _can_fly(
+    spec: MissionSpec,
+    fleet: dict[str, DroneView],
+    busy: set[str],
+    chosen: list[DroneView],
+    drone: DroneView,
+    steps: list[dict[str, Any]],
+    reserve_pct: float,
+) -> tuple[Any, bool, str]:
+    """The estimate of ``steps`` for ``drone``; refuses (PlannerError) a share its battery
+    cannot finish when no drone could take it over. Run before the separation check too: a
+    share thousands of kilometres long is refused here at once, not predicted second by second
+    against the traffic."""
+    est = estimate(
+        steps,
+        start=drone.position,
+        home=drone.home,
+        airborne=drone.airborne,
+        battery_pct=drone.battery_pct,
+        model=VehicleModel.of_vehicle(drone.flight),  # its own autopilot's figures
+    )
+    ok, why = can_finish(est, reserve_pct=reserve_pct)
+    if not ok and not _relief_exists(spec, fleet, busy, chosen, est):
+        raise PlannerError(
+            f"drone {drone.drone_id} cannot finish its share: {why}",
+            check="battery",
+            drone_id=drone.drone_id,
+        )
+    return est, ok, why
+
+
 def _relief_exists(spec: MissionSpec, fleet: dict, busy: set, chosen: list, est: Any) -> bool:
     """A share the battery cannot finish is still accepted when the planner will hand it over
     in flight (early replacement on) and an idle drone could fly all of it with the reserve."""
@@ -271,17 +277,27 @@ async def preview(planner: MissionPlanner, spec: MissionSpec) -> dict[str, Any]:
     return {
         "steps": done.work,
         **done.coverage,
+        "end_action": spec.options.end_action,
         "drones": [
-            {"drone_id": drone_id, "steps": len(prefix) + len(idx) + len(end), **est}
+            {"drone_id": drone_id, "steps": len(prefix) + len(idx) + len(end),
+             "end": [s["command"] for s in end], **est}
             for drone_id, prefix, idx, end, est in done.shares
         ],
-    }
+    }  # fmt: skip
+
+
+#: Called with the request, its plan and the fleet's records before a mission flies; raises to
+#: refuse it (the pre-flight checklist, ground/planner/preflight.py).
+Gate = Callable[["MissionSpec", Planned, list[dict[str, Any]]], Awaitable[None]]
 
 
 async def create(
-    planner: MissionPlanner, spec: MissionSpec, *, start: bool = False
+    planner: MissionPlanner, spec: MissionSpec, *, start: bool = False, gate: Gate | None = None
 ) -> MissionRecord:
-    done = await planned(planner, spec)
+    records = await planner.fleet.records()
+    done = await planned(planner, spec, records)
+    if start and gate is not None:
+        await gate(spec, done, records)
     record = MissionRecord(
         mission_id=spec.mission_id or f"M{secrets.token_hex(4)}",
         name=spec.name,
@@ -309,7 +325,9 @@ async def launch(planner: MissionPlanner, record: MissionRecord, shares: list[An
         await planner.send_leg(record, leg)
 
 
-async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
+async def start(
+    planner: MissionPlanner, mission_id: str, *, gate: Gate | None = None
+) -> MissionRecord:
     record = planner.get(mission_id)
     if record.state is not MissionState.PLANNED:
         raise Conflict(f"mission {mission_id} is {record.state.value}, not planned")
@@ -322,7 +340,10 @@ async def start(planner: MissionPlanner, mission_id: str) -> MissionRecord:
         )
     except ValidationError as exc:  # stored before the request bounds were tightened
         raise PlannerError(f"mission {mission_id} can no longer be planned: {reason(exc)}") from exc
-    done = await planned(planner, spec)
+    records = await planner.fleet.records()
+    done = await planned(planner, spec, records)
+    if gate is not None:
+        await gate(spec, done, records)
     record.work = done.work
     await launch(planner, record, done.shares)
     return record

@@ -20,7 +20,9 @@ class PlannerOps(Protocol):
     fleet: FleetView
     worker: PlanningWorker
     reserve_pct: float
+    max_altitude_m: float
     latest: dict[str, dict[str, Any]]  # drone id -> its latest telemetry fields
+    missions: dict[str, MissionRecord]  # every mission it knows (their legs are the traffic)
 
     @property
     def lock(self) -> asyncio.Lock:

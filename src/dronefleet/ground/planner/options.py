@@ -13,6 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from dronefleet.ground.planner.ends import EndAction
 from dronefleet.ground.planner.geofence import Geofence
+from dronefleet.messaging.fence import MAX_RALLY_POINTS, RallyPoint
 
 #: How a drone gets to its work: climbing while flying (ours) or the dissertation's way (seed).
 Strategy = Literal["ours", "seed"]
@@ -36,6 +37,9 @@ class MissionOptions(BaseModel):
     # Where the mission may fly: checked for every drone's share before it is accepted
     # (ground/planner/geofence.py).
     geofence: Geofence | None = None
+    # Where a drone sent home early may land instead, when one is nearer than home (ground/
+    # planner/rally.py); each must be inside the geofence. MAVLink autopilots get them too.
+    rally_points: list[RallyPoint] = Field(default_factory=list, max_length=MAX_RALLY_POINTS)
 
 
 class RecordOptions(MissionOptions):

@@ -1,9 +1,10 @@
 """Self-replacement (seed 3.1.5, 5.3): a drone that raises CRITICAL is replaced in flight.
 
 The replacement is the idle, online drone with enough battery for the rest, nearest to where it
-must go first (the failing drone's position). The failing drone lands; the replacement arms, takes
-off, flies to the failing drone's position and then flies exactly the steps not yet flown: every
-waypoint unit not wholly done, none that is (see :mod:`.units`).
+must go first (the failing drone's position). The failing drone goes home (or to the nearest
+rally point) when the mission ends with RTL, else it lands where it is as the seed's did; the
+replacement arms, takes off, flies to the failing drone's position and then flies exactly the
+steps not yet flown: every waypoint unit not wholly done, none that is (see :mod:`.units`).
 """
 
 from __future__ import annotations
@@ -11,7 +12,8 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from dronefleet.ground.planner.ends import end_steps
+from dronefleet.ground.planner.deconflict import Share
+from dronefleet.ground.planner.ends import GO_HOME, end_steps
 from dronefleet.ground.planner.estimate import can_finish, estimate
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
@@ -26,6 +28,8 @@ from dronefleet.ground.planner.models import (
 )
 from dronefleet.ground.planner.ops import PlannerOps
 from dronefleet.ground.planner.options import LegRole
+from dronefleet.ground.planner.separation import SeparationConflict
+from dronefleet.ground.planner.traffic import keep_apart
 from dronefleet.ground.planner.units import remaining
 from dronefleet.messaging.commands import Command
 from dronefleet.messaging.status import Alarm
@@ -73,8 +77,16 @@ def pick(
     return None, "no idle drone can take over" + (f" ({'; '.join(reasons)})" if reasons else "")
 
 
-#: What a replaced drone does: the seed's controlled descent where it is.
+#: What a replaced drone does in a mission that does not end with RTL: the seed's controlled
+#: descent where it is (the experiments keep it, as the seed's end).
 LAND_HERE = ({"command": Command.LAND.value}, {"command": Command.WAIT_FOR_FLIGHT.value})
+
+
+def recovery_of(record: MissionRecord) -> tuple[dict[str, Any], ...]:
+    """How a replaced drone leaves: home, or the nearest rally point on the way (``GO_HOME``),
+    when the mission ends with RTL (the default), rather than landing in the field (issue 14:
+    a departing drone landed 140 m from home)."""
+    return GO_HOME if record.options.end_action == "rtl" else LAND_HERE
 
 
 async def replace(
@@ -83,12 +95,14 @@ async def replace(
     leg: Leg,
     alarm: Alarm,
     *,
-    recovery: tuple[dict[str, Any], ...] = LAND_HERE,
+    recovery: tuple[dict[str, Any], ...] | None = None,
     give_up: MissionState = MissionState.FAILED,
 ) -> None:
     """Replace the drone flying ``leg`` after its CRITICAL ``alarm`` (or its loss: ground/
-    planner/lost.py). The drone flies ``recovery``; with nobody to take over, the mission turns
-    ``give_up`` with the reason."""
+    planner/lost.py). The drone flies ``recovery`` (by default :func:`recovery_of` the mission);
+    with nobody to take over, the mission turns ``give_up`` with the reason."""
+    if recovery is None:
+        recovery = recovery_of(record)
     async with planner.lock:
         if leg.role.outgoing:
             return  # already on its way out: its replacement is planned
@@ -170,6 +184,17 @@ async def _hand_over(
             record.options.strategy,
         )
     )
+    if chosen is not None:
+        assert not isinstance(prefix_or_reason, str)  # a chosen drone comes with its preparation
+        planned = Share(
+            chosen.drone_id, prefix_or_reason, work, end, chosen.position, chosen.home,
+            chosen.airborne, chosen.flight,
+        )  # fmt: skip
+        try:  # kept clear of the drone it replaces (coming down) and of everyone else
+            (placed,) = await keep_apart(planner, fleet, [planned])
+            prefix_or_reason, end = placed.prefix, placed.end
+        except SeparationConflict as exc:
+            chosen, prefix_or_reason = None, str(exc)
     if chosen is None:
         handover.error = str(prefix_or_reason)
         record.state = give_up

@@ -14,6 +14,7 @@ from pydantic import BaseModel, ConfigDict
 __all__ = ["LatLon", "MissionDetail", "MissionSummary", "Preview"]
 
 from dronefleet.ground.planner.coverage import AreaSpec
+from dronefleet.ground.planner.ends import EndAction
 from dronefleet.ground.planner.models import Expansion, Handover, LatLon, Leg, MissionState
 from dronefleet.ground.planner.options import RecordOptions
 from dronefleet.messaging.status import Alarm
@@ -67,6 +68,9 @@ class MissionDetail(BaseModel):
 class DroneShare(BaseModel):
     drone_id: str
     steps: int
+    #: The steps appended to end the share with the mission's end action (none for ``hold``, or
+    #: when the steps end on the ground already: ground/planner/ends.py).
+    end: list[str]
     duration_s: float
     battery_used_pct: float
     battery_end_pct: float
@@ -94,4 +98,5 @@ class Preview(BaseModel):
     area_m2: float | None
     angle_deg: float | None
     spacing_m: float | None
+    end_action: EndAction
     drones: list[DroneShare]

@@ -12,12 +12,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
 from dronefleet.clock import timestamp_s
 from dronefleet.errors import Conflict, InvalidInput, NotFound
-from dronefleet.ground.planner import reconcile
+from dronefleet.ground.planner import paths, reconcile
 from dronefleet.ground.planner.ends import GO_HOME
 from dronefleet.ground.planner.fleet_view import FleetView
 from dronefleet.ground.planner.mission_log import build_log
@@ -36,7 +37,6 @@ from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import AlarmLevel, Command
-from dronefleet.messaging.common import Position
 from dronefleet.messaging.ground_events import PlannerEvent
 from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.log_throttle import LogThrottle
@@ -62,8 +62,6 @@ _throttle = LogThrottle(
     log
 )  # one line per kind per 10 s: junk on the broker must not flood the log
 
-PATH_SAMPLE_S = 1.0  # vehicle seconds between path points kept for the mission log
-
 
 class PlannerError(InvalidInput):
     """A mission the planner refuses as asked; the message says why (REST: 422).
@@ -85,6 +83,9 @@ class MissionPlanner:
         worker: PlanningWorker | None = None,
     ) -> None:
         self.client = BrokerClient(broker_url, client_id, persistent_session=True)
+        #: Reports and alarms dropped, by kind: malformed, or about another drone than the one
+        #: whose topic they came on (issue 12: a forged alarm must start no replacement).
+        self.dropped: Counter[str] = Counter()
         self.worker = worker or PlanningWorker()  # planning off the event loop, with a budget
         self.requester = Requester(self.client)
         self.fleet = FleetView(self.requester)
@@ -233,6 +234,7 @@ class MissionPlanner:
             steps=leg.drone_steps(record.work),
             onboard=record.options.onboard,
             fence=record.options.geofence,
+            rally=record.options.rally_points,
         )
         await self.client.publish(
             topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
@@ -284,7 +286,7 @@ class MissionPlanner:
             flying = [leg for leg in record.active_legs() if not leg.paused]
             if record.terminal or record.state is MissionState.PLANNED or not flying:
                 raise Conflict(f"mission {mission_id} is {record.state.value}: nothing to pause")
-            await self._ask_legs(flying, MissionAction.PAUSE)
+            await self.ask_legs(flying, MissionAction.PAUSE)
             return record
 
     async def resume_mission(self, mission_id: str) -> MissionRecord:
@@ -295,10 +297,11 @@ class MissionPlanner:
             paused = [leg for leg in record.active_legs() if leg.paused]
             if record.state is not MissionState.PAUSED or not paused:
                 raise Conflict(f"mission {mission_id} is {record.state.value}, not paused")
-            await self._ask_legs(paused, MissionAction.RESUME)
+            await self.ask_legs(paused, MissionAction.RESUME)
             return record
 
-    async def _ask_legs(self, legs: list[Leg], action: MissionAction) -> None:
+    async def ask_legs(self, legs: list[Leg], action: MissionAction) -> None:
+        """Send each leg's drone ``action`` (pause, resume) for that leg."""
         for leg in legs:
             await self.client.publish(
                 topic(leg.drone_id, Channel.MISSION, Direction.IN),
@@ -312,6 +315,7 @@ class MissionPlanner:
             msg = parse_message(MissionProgress, payload)
             speaks_for_itself(topic_name, msg.drone_id)
         except MessageError as exc:
+            self.dropped["progress"] += 1
             _throttle.log(
                 logging.WARNING, "progress", "dropping progress on %s: %s", topic_name, exc
             )
@@ -328,7 +332,7 @@ class MissionPlanner:
                 self.spawn(reconcile.forgotten(self, record, leg), f"forgotten:{leg.leg_id}")
                 return
             if apply_progress(record, leg, msg):  # a step reported for the first time
-                self._path_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
+                paths.add_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
             if note_seq(leg, msg.seq):
                 self.spawn(reconcile.fill_gap(self, leg), f"gap:{leg.leg_id}")
             await self.save(record)
@@ -383,6 +387,7 @@ class MissionPlanner:
             alarm = parse_message(Alarm, payload)
             speaks_for_itself(topic_name, alarm.drone_id)
         except MessageError as exc:
+            self.dropped["alarm"] += 1
             _throttle.log(logging.WARNING, "alarm", "dropping alarm on %s: %s", topic_name, exc)
             return
         data = alarm.model_dump(mode="json", exclude_none=True)
@@ -431,32 +436,10 @@ class MissionPlanner:
         if "battery_pct" in fields and "lat" in fields:
             self.latest[msg.drone_id] = {**fields, "vehicle_time_s": msg.vehicle_time_s}
         record, _leg = self._mission_of(msg.drone_id, None)
-        if record is None or not {"lat", "lon"} <= fields.keys():
+        if record is None:
             return
-        try:
-            position = Position(
-                lat=fields["lat"],
-                lon=fields["lon"],
-                alt_m=fields.get("alt_m", 0.0),
-                relative_alt_m=fields.get("relative_alt_m", 0.0),
-            )
-        except ValueError:
-            return
-        if self._path_point(record, msg.drone_id, msg.vehicle_time_s, position):
+        if paths.add_point(record, msg.drone_id, msg.vehicle_time_s, paths.position_of(fields)):
             self._dirty.add(record.mission_id)
-
-    def _path_point(
-        self, record: MissionRecord, drone_id: str, t: float | None, position: Position | None
-    ) -> bool:
-        if position is None or t is None:
-            return False
-        path = record.paths.setdefault(drone_id, [])
-        if path and t - path[-1][0] < PATH_SAMPLE_S:
-            return False
-        path.append(
-            [round(t, 2), position.lat, position.lon, round(position.relative_alt_m or 0.0, 2)]
-        )
-        return True
 
     async def _flush_paths(self) -> None:
         while True:

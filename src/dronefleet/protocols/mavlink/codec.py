@@ -10,7 +10,10 @@ truncated or random bytes are counted and dropped; a component never dies on inp
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import re
+import time
 from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
@@ -23,11 +26,52 @@ dialect = mavlink2
 Message: TypeAlias = mavlink2.MAVLink_message  # pymavlink ships no type information
 
 
-class Encoder:
-    """Packs messages as one MAVLink 2 system/component, counting the sequence number."""
+# -- MAVLink 2 message signing (https://mavlink.io/en/guide/message_signing.html) ------------------
+#: Signing timestamps count 10 µs units from 2015-01-01 00:00 UTC.
+_SIGNING_EPOCH_S = 1420070400
+#: What a signing end still takes unsigned: RADIO_STATUS, which a telemetry radio injects into the
+#: link and cannot sign (the signing guide's example of an accept-unsigned callback).
+UNSIGNED_ALLOWED = frozenset({mavlink2.MAVLINK_MSG_ID_RADIO_STATUS})
+_HEX_KEY = re.compile(r"[0-9a-fA-F]{64}")
 
-    def __init__(self, system_id: int, component_id: int) -> None:
+
+def signing_key(secret: str) -> bytes:
+    """The 32-byte secret key for ``secret``: 64 hex digits are the key itself; anything else is a
+    passphrase, hashed with SHA-256 as MAVProxy's ``signing setup`` and QGroundControl do, so the
+    same passphrase signs for all of them."""
+    secret = secret.strip()
+    if not secret:
+        raise ValueError("an empty MAVLink signing key")
+    if _HEX_KEY.fullmatch(secret):
+        return bytes.fromhex(secret)
+    return hashlib.sha256(secret.encode()).digest()
+
+
+def enable_signing(mav: Any, key: bytes, link_id: int = 0) -> None:
+    """Sign what ``mav`` packs and accept only correctly signed, fresh frames (but
+    :data:`UNSIGNED_ALLOWED`); pymavlink checks signatures and replayed timestamps."""
+    if len(key) != 32:
+        raise ValueError("a MAVLink signing key is 32 bytes")
+    signing = mav.signing
+    signing.secret_key = key
+    signing.sign_outgoing = True
+    signing.link_id = link_id
+    signing.timestamp = max(signing.timestamp, int((time.time() - _SIGNING_EPOCH_S) * 100_000))
+    signing.allow_unsigned_callback = lambda _mav, msg_id: msg_id in UNSIGNED_ALLOWED
+
+
+def _is_signature_refusal(message: Message) -> bool:
+    return "signature" in str(getattr(message, "reason", "")).lower()
+
+
+class Encoder:
+    """Packs messages as one MAVLink 2 system/component, counting the sequence number; signs
+    them when given a key."""
+
+    def __init__(self, system_id: int, component_id: int, *, signing: bytes | None = None) -> None:
         self._mav = mavlink2.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
+        if signing is not None:
+            enable_signing(self._mav, signing)
 
     @property
     def system_id(self) -> int:
@@ -44,18 +88,26 @@ class Encoder:
 
 
 class FrameDecoder:
-    """Bytes in, messages out; bad frames are counted in :attr:`errors`, never raised."""
+    """Bytes in, messages out; bad frames are counted in :attr:`errors`, never raised. With a
+    signing key, frames not signed with it (or replayed) are dropped and counted in
+    :attr:`unsigned`."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, signing: bytes | None = None) -> None:
+        self._signing = mavlink2.MAVLinkSigning()
+        if signing is not None:
+            holder = mavlink2.MAVLink(None)
+            enable_signing(holder, signing)
+            self._signing = holder.signing
         self._mav = self._new_parser()
         self.errors = 0
         self.unknown = 0
+        self.unsigned = 0
         self.messages = 0
 
-    @staticmethod
-    def _new_parser() -> Any:
+    def _new_parser(self) -> Any:
         mav = mavlink2.MAVLink(None)
         mav.robust_parsing = True  # bad frames come back as BAD_DATA instead of exceptions
+        mav.signing = self._signing  # streams' last timestamps outlive a parser reset
         return mav
 
     def reset(self) -> None:
@@ -74,7 +126,10 @@ class FrameDecoder:
             return out
         for message in got:
             if message.get_type() == "BAD_DATA":
-                self.errors += 1
+                if _is_signature_refusal(message):
+                    self.unsigned += 1
+                else:
+                    self.errors += 1
             elif isinstance(message, mavlink2.MAVLink_unknown):
                 # An id outside our dialect has no CRC seed to check it against: a corrupted id
                 # looks exactly like this, so such frames are dropped, never trusted.

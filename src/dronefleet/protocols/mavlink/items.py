@@ -16,6 +16,8 @@ from dronefleet.protocols.mavlink.codec import dialect as mav
 RELATIVE = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 ABSOLUTE = mav.MAV_FRAME_GLOBAL_INT
 MISSION = mav.MAV_MISSION_TYPE_MISSION
+FENCE = mav.MAV_MISSION_TYPE_FENCE
+RALLY = mav.MAV_MISSION_TYPE_RALLY
 
 #: Commands the autopilot flies to (the rest are "DO" commands run along the way).
 NAV_COMMANDS = frozenset(
@@ -146,3 +148,20 @@ def trigger_distance(distance_m: float) -> MissionItem:
 
 def change_speed(speed_mps: float) -> MissionItem:
     return MissionItem(mav.MAV_CMD_DO_CHANGE_SPEED, param1=1.0, param2=speed_mps)
+
+
+# -- geofence and rally points (mission_type FENCE and RALLY) ------------------------------------
+def fence_vertex(lat: float, lon: float, vertices: int, *, inclusion: bool) -> MissionItem:
+    """One corner of a fence polygon of ``vertices`` corners (param1), as ArduPilot's
+    AC_PolyFence_loader and QGroundControl's fence items have it."""
+    command = (
+        mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+        if inclusion
+        else mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+    )
+    return MissionItem(command, param1=float(vertices), frame=mav.MAV_FRAME_GLOBAL).at(lat, lon)
+
+
+def rally_point(lat: float, lon: float, altitude_m: float) -> MissionItem:
+    """A rally point ``altitude_m`` above home (ArduPilot's AP_Rally: relative frame)."""
+    return MissionItem(mav.MAV_CMD_NAV_RALLY_POINT, z=altitude_m).at(lat, lon)

@@ -50,6 +50,7 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         port: int,
         *,
         gas_sensor: GasSensor | None = None,
+        signing_key: bytes | None = None,
     ) -> None:
         self.copter = copter
         copter.events = self
@@ -61,8 +62,10 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         self.streams = StreamScheduler()
         self.commands = CommandHandler(self)
         self.transfer = MissionTransfer(copter, self.send)
-        self._encoder = Encoder(system_id, mav.MAV_COMP_ID_AUTOPILOT1)
-        self._decoder = FrameDecoder()
+        # With a key, everything sent is signed and anything not signed with it is ignored, as
+        # ArduPilot does once signing is set up (only RADIO_STATUS passes unsigned).
+        self._encoder = Encoder(system_id, mav.MAV_COMP_ID_AUTOPILOT1, signing=signing_key)
+        self._decoder = FrameDecoder(signing=signing_key)
         self._transport: asyncio.DatagramTransport | None = None
         self._text_id = 0
         self._was_rebooting = False
@@ -75,6 +78,11 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
     @property
     def decode_errors(self) -> int:
         return self._decoder.errors
+
+    @property
+    def unsigned_dropped(self) -> int:
+        """Frames ignored for a missing, wrong or replayed signature."""
+        return self._decoder.unsigned
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()

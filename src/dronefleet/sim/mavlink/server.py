@@ -36,8 +36,10 @@ class MavlinkSimServer:
         base_port: int = 14550,
         first_system_id: int = 1,
         pictures_dir: str | Path | None = None,
+        signing_key: bytes | None = None,
     ) -> None:
         self.world = world
+        self.signing_key = signing_key
         self.host = host
         self.base_port = base_port
         self.first_system_id = first_system_id
@@ -60,6 +62,7 @@ class MavlinkSimServer:
             self.host,
             self.base_port + index if port is None else port,
             gas_sensor=GasSensor(vehicle, self.world.gas_field),
+            signing_key=self.signing_key,
         )
         self.endpoints.append(endpoint)
         return endpoint
@@ -107,6 +110,7 @@ def fleet_server(
     plumes: list[tuple[float, float, float, float]] | None = None,
     pictures_dir: str | Path | None = None,
     first_system_id: int = 1,
+    signing_key: bytes | None = None,
 ) -> MavlinkSimServer:
     """A world of ``count`` vehicles around ``home``, ready to :meth:`~MavlinkSimServer.start`."""
     from dronefleet.sim.gasfield import GasField, Plume
@@ -121,6 +125,7 @@ def fleet_server(
         base_port=base_port,
         pictures_dir=pictures_dir,
         first_system_id=first_system_id,
+        signing_key=signing_key,
     )
     for spot in homes_around(home, count, spacing_m):
         server.add_vehicle(LLA(spot.lat, spot.lon, home.alt_m), initial_charge_pct=battery_pct)

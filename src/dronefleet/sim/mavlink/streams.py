@@ -80,6 +80,16 @@ def global_position_int(c: SimCopter, _: GasSensor | None) -> Message:
     )  # fmt: skip
 
 
+def local_position_ned(c: SimCopter, _: GasSensor | None) -> Message:
+    """Position and velocity from the EKF origin (home here), metres and m/s, as ArduPilot sends
+    it in the POSITION stream beside GLOBAL_POSITION_INT."""
+    v = c.vehicle
+    pos, vel = v.position_ned, v.velocity_ned
+    return mav.MAVLink_local_position_ned_message(
+        c.boot_ms(), pos.n, pos.e, pos.d, vel.n, vel.e, vel.d
+    )
+
+
 def attitude(c: SimCopter, _: GasSensor | None) -> Message:
     att = c.vehicle.attitude
     yaw = math.radians(att.yaw_deg)
@@ -175,6 +185,7 @@ BUILDERS: dict[int, Builder] = {
     mav.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
     mav.MAVLINK_MSG_ID_BATTERY_STATUS: battery_status,
     mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: global_position_int,
+    mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED: local_position_ned,
     mav.MAVLINK_MSG_ID_ATTITUDE: attitude,
     mav.MAVLINK_MSG_ID_GPS_RAW_INT: gps_raw_int,
     mav.MAVLINK_MSG_ID_HOME_POSITION: home_position,
@@ -192,6 +203,7 @@ DEFAULT_INTERVALS_S: dict[int, float] = {
     mav.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
     mav.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
     mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 0.25,
+    mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED: 0.25,
     mav.MAVLINK_MSG_ID_ATTITUDE: 0.25,
     mav.MAVLINK_MSG_ID_GPS_RAW_INT: 0.5,
     mav.MAVLINK_MSG_ID_HOME_POSITION: 5.0,
@@ -209,7 +221,9 @@ DATA_STREAMS: dict[int, tuple[int, ...]] = {
         mav.MAVLINK_MSG_ID_SYS_STATUS, mav.MAVLINK_MSG_ID_GPS_RAW_INT,
         mav.MAVLINK_MSG_ID_MISSION_CURRENT, mav.MAVLINK_MSG_ID_BATTERY_STATUS,
     ),
-    mav.MAV_DATA_STREAM_POSITION: (mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,),
+    mav.MAV_DATA_STREAM_POSITION: (
+        mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
+    ),
     mav.MAV_DATA_STREAM_EXTRA1: (mav.MAVLINK_MSG_ID_ATTITUDE,),
     mav.MAV_DATA_STREAM_EXTRA2: (mav.MAVLINK_MSG_ID_VFR_HUD,),
     mav.MAV_DATA_STREAM_EXTRA3: (mav.MAVLINK_MSG_ID_SYSTEM_TIME,),

@@ -1,5 +1,6 @@
 // The web app's shell: sign-in, the page router (#/fleet, #/control, ...), the live stream.
-import { api, getToken, setToken, Stream } from "./api.js";
+import { api, signIn as openSession, signOut, Stream, takeLegacyToken } from "./api.js";
+import { announce, installAlerts } from "./alerts.js";
 import { Fleet } from "./fleet.js";
 import { toast } from "./ui.js";
 
@@ -9,6 +10,7 @@ const PAGES = {
   planner: () => import("./pages/planner.js"),
   telemetry: () => import("./pages/telemetry.js"),
   replay: () => import("./pages/replay.js"),
+  photos: () => import("./pages/gallery.js"),
   call: () => import("./pages/call.js"),
 };
 
@@ -24,12 +26,7 @@ ctx.onStream = (fn) => {
 
 function onMessage(msg) {
   ctx.fleet.onStream(msg);
-  if (msg.kind === "alarm") {
-    const d = msg.data || {};
-    toast(`alarm from ${msg.drone_id}: ${d.level || ""} ${d.message || d.alarm || JSON.stringify(d)}`, "error");
-  } else if (msg.kind === "fleet" && msg.data && msg.data.event === "lost") {
-    toast(`drone ${msg.drone_id} lost: no heartbeat`, "error");
-  }
+  announce(msg); // alarms: a toast, and a beep for CRITICAL ones and lost drones (alerts.js)
   for (const fn of ctx.listeners) fn(msg);
 }
 
@@ -52,7 +49,7 @@ function setLink(state) {
   node.textContent = state === "live" ? "live" : state;
   node.dataset.state = state;
   if (state === "live") ctx.fleet.refresh();
-  if (state === "unauthorized") askToken("The token was refused.");
+  if (state === "unauthorized") askToken("Signed out: sign in again.");
 }
 
 async function route() {
@@ -79,48 +76,72 @@ function askToken(message) {
   if (!dialog.open) dialog.showModal();
 }
 
-async function signIn(token) {
-  setToken(token);
+/** Who the session cookie belongs to, or null when there is no (live) session. */
+async function whoAmI() {
   try {
-    ctx.me = await api("/web/me");
+    return await api("/web/me");
   } catch (err) {
-    setToken(null);
+    if (err.status === 401) return null;
+    throw err;
+  }
+}
+
+function signedIn(me) {
+  ctx.me = me;
+  document.body.classList.toggle("viewer", !me.can_command);
+  return true;
+}
+
+async function signIn(token) {
+  try {
+    return signedIn(await openSession(token));
+  } catch (err) {
     askToken(err.status === 401 ? "Unknown token." : err.message);
     return false;
   }
-  document.body.classList.toggle("viewer", !ctx.me.can_command);
-  return true;
 }
 
 async function start() {
   document.getElementById("login-form").addEventListener("submit", async (event) => {
     event.preventDefault();
-    const token = document.getElementById("login-token").value.trim();
+    const field = document.getElementById("login-token");
+    const token = field.value.trim();
+    field.value = ""; // the token is not kept, not even in the form
     if (await signIn(token)) {
       document.getElementById("login").close();
       boot();
     }
   });
-  document.getElementById("logout").addEventListener("click", () => {
-    setToken(null);
+  document.getElementById("logout").addEventListener("click", async () => {
+    try { await signOut(); } catch { /* already signed out */ }
     location.reload();
   });
-  const fromUrl = new URLSearchParams(location.search).get("token");
-  if (fromUrl) {
-    history.replaceState(null, "", location.pathname + location.hash);
-    if (await signIn(fromUrl)) return boot();
+  // The sign-in link (/?token=...): read once, out of the address bar and history at once.
+  const fromUrl = new URLSearchParams(location.search).get("token") || takeLegacyToken();
+  if (location.search) history.replaceState(null, "", location.pathname + location.hash);
+  if (fromUrl && (await signIn(fromUrl))) return boot();
+  let me = null;
+  try {
+    me = await whoAmI();
+  } catch (err) {
+    askToken(err.message);
+    return;
   }
-  if (getToken() && (await signIn(getToken()))) return boot();
+  if (me) {
+    signedIn(me);
+    return boot();
+  }
   askToken();
 }
 
 function boot() {
   if (stream) return;
-  ctx.fleet.addEventListener("unauthorized", () => askToken("The token was refused."));
+  ctx.fleet.addEventListener("unauthorized", () => askToken("Signed out: sign in again."));
   ctx.fleet.start();
   stream = new Stream(onMessage, setLink);
   window.addEventListener("hashchange", route);
   route();
 }
 
+installAlerts(document.getElementById("mute"));
 start();

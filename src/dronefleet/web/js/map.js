@@ -1,4 +1,7 @@
 // Leaflet maps that work offline: a plain grid with a scale bar under the (optional) tiles.
+import { addSearch } from "./search.js";
+import { addImagery } from "./tiles.js";
+
 const L = window.L;
 export const DEFAULT_CENTER = [40.63, -8.659];
 const COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2"];
@@ -36,23 +39,20 @@ const GridLayer = L.GridLayer.extend({
   },
 });
 
-/** A map in `element`; resolves once the tile/grid decision is made. */
-export async function makeMap(element, { center = DEFAULT_CENTER, zoom = 18 } = {}) {
-  const map = L.map(element, { center, zoom, maxZoom: 22, attributionControl: false });
+/** A map in `element`; resolves once the tile/grid decision is made. `search`: a search box
+ * (coordinates, drones, missions, addresses: web/js/search.js). */
+export async function makeMap(element, { center, zoom = 18, search = false } = {}) {
+  const map = L.map(element, { center: center || DEFAULT_CENTER, zoom, maxZoom: 22, attributionControl: false });
   new GridLayer({ maxZoom: 22, zIndex: 0 }).addTo(map);
   L.control.scale({ imperial: false, maxWidth: 150 }).addTo(map);
-  const { tiles } = await webConfig();
-  if (tiles) {
-    const layer = L.tileLayer(tiles, { maxZoom: 22, maxNativeZoom: 19, zIndex: 1 });
-    let loaded = 0;
-    let failed = 0;
-    layer.on("tileload", () => { loaded += 1; });
-    layer.on("tileerror", () => {
-      failed += 1;
-      if (failed >= 4 && loaded === 0) map.removeLayer(layer); // offline: keep the grid only
-    });
-    layer.addTo(map);
-  }
+  // Leaflet measures its box once; a side panel that fills later narrows it, and "centre here"
+  // would land off-centre (by half the change) until it is measured again.
+  const resized = new ResizeObserver(() => map.invalidateSize({ pan: false }));
+  resized.observe(element);
+  map.on("unload", () => resized.disconnect());
+  const view = await addImagery(map, await webConfig());
+  if (view && !center) map.setView(view.center, view.zoom); // where the local imagery is
+  if (search) addSearch(map);
   element.dataset.ready = "1";
   return map;
 }

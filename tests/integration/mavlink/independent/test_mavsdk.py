@@ -5,40 +5,32 @@ UDP as it would drive ArduPilot Copter: ``arm()`` immediately followed by ``take
 before: ARM was ACKed 3 s before the vehicle armed), goto, return to launch with the landing
 disarmed by the vehicle itself, parameters read and written, a mission uploaded and downloaded
 (home read back as item 0), a QGroundControl .plan imported and uploaded, and five vehicles, each
-on its own port. Timeouts are wall seconds at 5x. Not yet here: a mission flown through MAVSDK's
-start_mission and its offboard control (both timed out in a first try; issue 10 stays open).
+on its own port, a mission flown with ``start_mission`` and its progress followed to the end, and
+offboard velocity control. Timeouts are wall seconds at 5x.
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
-from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
 from mavsdk import System
 from mavsdk.mission_raw import MissionItem
+from mavsdk.offboard import VelocityNedYaw
 
-from dronefleet.experiments.fleets import free_udp_port
 from dronefleet.messaging.embedded import free_port
-from support.processes import dronefleet_process
+from support.processes import dronefleet_sim
 
 pytestmark = pytest.mark.integration
 
 HOME = (40.63, -8.659, 10.0)
-SPEEDUP = "5"
+SPEEDUP = 5.0
 
 
-@contextlib.asynccontextmanager
-async def sim(count: int = 1) -> AsyncIterator[int]:
-    """``dronefleet sim`` over MAVLink on free UDP ports; yields the first vehicle's port."""
-    port = free_udp_port()  # vehicle i on port + i
-    args = ("sim", "--count", str(count), "--speedup", SPEEDUP,
-            "--mavlink", f"udp:127.0.0.1:{port}", "--home", ",".join(map(str, HOME)))  # fmt: skip
-    async with dronefleet_process(*args, ready="sim ready"):
-        yield port
+def sim(count: int = 1):
+    return dronefleet_sim(count, HOME, SPEEDUP)
 
 
 async def connected(port: int) -> System:
@@ -75,6 +67,60 @@ async def test_arm_then_takeoff_goto_and_home_landing_disarmed_by_itself():
         await first(drone.telemetry.armed(), lambda armed: not armed, 120)
         here = await first(drone.telemetry.position(), lambda p: True)
         assert abs(here.latitude_deg - HOME[0]) < 3e-5 and here.relative_altitude_m < 0.5
+
+
+async def up(drone: System) -> None:
+    await drone.action.set_takeoff_altitude(10.0)
+    await drone.action.arm()
+    await drone.action.takeoff()
+    await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 9.0)
+
+
+async def test_a_mission_is_started_followed_to_its_end_and_lands_at_home():
+    # ArduPilot Copter armed in AUTO on the ground waits for throttle or MISSION_START (MAVSDK
+    # sends neither), so its users take off in GUIDED and then start the mission in the air.
+    wps = [(HOME[0] + n / 111_320, HOME[1]) for n in (20, 40)]
+    items = [item(0, 16, HOME[0], HOME[1], 0), item(1, 22),
+             *(item(i + 2, 16, *wp) for i, wp in enumerate(wps)), item(4, 20)]  # fmt: skip
+    async with sim() as port:
+        drone = await connected(port)
+        await drone.mission_raw.upload_mission(items)
+        await up(drone)
+        seen: list[int] = []
+
+        async def progress() -> None:
+            async for p in drone.mission_raw.mission_progress():
+                seen.append(p.current)
+                if p.current == p.total == len(items):
+                    return
+
+        await drone.mission_raw.start_mission()
+        async with asyncio.timeout(90):
+            await progress()
+        assert seen == sorted(seen) and {2, 3, 4} <= set(seen), seen
+        await first(drone.telemetry.armed(), lambda armed: not armed, 120)  # the RTL item lands
+        here = await first(drone.telemetry.position(), lambda p: True)
+        assert abs(here.latitude_deg - HOME[0]) < 3e-5 and here.relative_altitude_m < 0.5
+
+
+async def test_offboard_velocity_moves_the_vehicle_and_stops_with_it():
+    async with sim() as port:
+        drone = await connected(port)
+        await up(drone)
+        await drone.offboard.set_velocity_ned(VelocityNedYaw(2.0, 0.0, 0.0, 0.0))
+        await drone.offboard.start()
+        moving = await first(
+            drone.telemetry.position_velocity_ned(), lambda p: p.position.north_m > 20, 60
+        )
+        assert moving.velocity.north_m_s == pytest.approx(2.0, abs=0.3)
+        assert abs(moving.position.east_m) < 1.0 and moving.position.down_m == pytest.approx(
+            -10.0, abs=1.0
+        )
+        await drone.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
+        await first(
+            drone.telemetry.position_velocity_ned(), lambda p: abs(p.velocity.north_m_s) < 0.1, 30
+        )
+        await drone.offboard.stop()
 
 
 async def test_parameters_are_read_and_written():

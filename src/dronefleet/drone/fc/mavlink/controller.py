@@ -99,6 +99,7 @@ class MavlinkFlightController(VehicleView):
         target_system: int | None = None,
         streams_hz: dict[str, float] | None = None,
         connect_timeout_s: float = 15.0,
+        signing_key: bytes | None = None,
     ) -> None:
         if telemetry_rate_hz <= 0:
             raise ValueError("telemetry rate must be positive")
@@ -107,7 +108,10 @@ class MavlinkFlightController(VehicleView):
         self.connect_timeout_s = connect_timeout_s
         self.streams_hz = dict(DEFAULT_STREAMS_HZ if streams_hz is None else streams_hz)
         self.link = MavlinkLink(
-            url, target_system=target_system, heartbeat_timeout_s=heartbeat_timeout_s
+            url,
+            target_system=target_system,
+            heartbeat_timeout_s=heartbeat_timeout_s,
+            signing_key=signing_key,
         )
         self.commands = CommandSender(self.link, ack_timeout_s=ack_timeout_s, retries=retries)
         self._clock = AutopilotClock()
@@ -321,6 +325,11 @@ class MavlinkFlightController(VehicleView):
             reason = self.link.reason_since(sent_at)
             if reason:
                 raise FcError(f"{self._name()}: position target refused: {reason}")
+
+    async def set_param(self, name: str, value: float) -> None:
+        """Set an autopilot parameter, confirmed by its echo (the fence's FENCE_* on upload)."""
+        self._require_link()
+        await session.set_param(self.link, name, value)
 
     def flight_params(self) -> dict[str, float]:
         """How this vehicle flies, from its parameters (SI units; for the planner)."""

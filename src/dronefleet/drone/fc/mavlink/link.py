@@ -22,7 +22,7 @@ from pymavlink import mavutil
 
 from dronefleet.clock import monotonic
 from dronefleet.errors import Unavailable
-from dronefleet.protocols.mavlink.codec import Message, text_field
+from dronefleet.protocols.mavlink.codec import Message, enable_signing, text_field
 from dronefleet.protocols.mavlink.codec import dialect as mav
 
 log = logging.getLogger(__name__)
@@ -52,8 +52,10 @@ class MavlinkLink:
         target_system: int | None = None,
         heartbeat_timeout_s: float = 3.0,
         baud: int = 57600,
+        signing_key: bytes | None = None,
     ) -> None:
         self.url = url
+        self.signing_key = signing_key
         self.source_system = source_system
         self.source_component = source_component
         self.target_system = target_system
@@ -100,6 +102,10 @@ class MavlinkLink:
             conn, srcSystem=self.source_system, srcComponent=self.source_component
         )
         conn.mav.robust_parsing = True
+        if self.signing_key is not None:
+            # Signed both ways: the autopilot ignores what we send unsigned, and we ignore
+            # whatever reaches this port without the key (issue 12).
+            enable_signing(conn.mav, self.signing_key)
         conn.first_byte = False
         conn.WIRE_PROTOCOL_VERSION = "2.0"
         self._conn = conn

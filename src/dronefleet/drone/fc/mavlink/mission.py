@@ -1,5 +1,8 @@
 """Missions on board: upload, download and progress over the MAVLink mission protocol.
 
+The same transfers carry the geofence and the rally points (``mission_type`` FENCE and RALLY,
+drone/autopilot_fence.py); only the mission has ArduPilot's home item at seq 0.
+
 Upload: MISSION_COUNT → the autopilot asks for each item (MISSION_REQUEST_INT) → MISSION_ITEM_INT
 → … → MISSION_ACK. Every step is retried on timeout, as the protocol expects. ArduPilot keeps
 its home position as item 0, so :meth:`MissionClient.upload` prepends it there and progress
@@ -24,6 +27,13 @@ from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.protocols.mavlink.items import ABSOLUTE, MISSION, MissionItem
 from dronefleet.protocols.mavlink.modes import Autopilot
 from dronefleet.vehicle.base import FcError
+
+#: What each transfer is called in a refusal.
+_KIND = {
+    MISSION: "mission",
+    mav.MAV_MISSION_TYPE_FENCE: "geofence",
+    mav.MAV_MISSION_TYPE_RALLY: "rally point",
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,22 +81,25 @@ class MissionClient:
         return 1 if self.autopilot is Autopilot.ARDUPILOT else 0
 
     # -- upload / download ------------------------------------------------------------------
-    async def upload(self, items: list[MissionItem], home: LLA | None = None) -> None:
-        """Replace the vehicle's mission with ``items``; returns once the autopilot accepted."""
+    async def upload(
+        self, items: list[MissionItem], home: LLA | None = None, mission_type: int = MISSION
+    ) -> None:
+        """Replace the vehicle's mission (or fence, or rally points: ``mission_type``) with
+        ``items``; returns once the autopilot accepted."""
         full = list(items)
-        if self.offset:
+        if self.offset and mission_type == MISSION:
             h = home or LLA(0.0, 0.0, 0.0)
             full.insert(
                 0, MissionItem(mav.MAV_CMD_NAV_WAYPOINT, z=h.alt_m, frame=ABSOLUTE).at(h.lat, h.lon)
             )
         target, comp = self._target(), self.link.target_component
-        count = mav.MAVLink_mission_count_message(target, comp, len(full), MISSION)
+        count = mav.MAVLink_mission_count_message(target, comp, len(full), mission_type)
         done: asyncio.Future[Message] = asyncio.get_running_loop().create_future()
         requests: asyncio.Queue[int] = asyncio.Queue()
 
         def on(msg: Message) -> None:
             kind = msg.get_type()
-            if getattr(msg, "mission_type", MISSION) != MISSION or not self._for_us(msg):
+            if getattr(msg, "mission_type", MISSION) != mission_type or not self._for_us(msg):
                 return
             if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
                 requests.put_nowait(msg.seq)
@@ -105,7 +118,7 @@ class MissionClient:
                 if getter in finished:
                     seq = getter.result()
                     if 0 <= seq < len(full):
-                        self._send(full[seq].to_message(target, comp, seq))
+                        self._send(full[seq].to_message(target, comp, seq, mission_type))
                     misses = 0
                     continue
                 getter.cancel()
@@ -123,24 +136,34 @@ class MissionClient:
         if ack.type != mav.MAV_MISSION_ACCEPTED:
             entry = mav.enums["MAV_MISSION_RESULT"].get(ack.type)
             reason = entry.name if entry else str(ack.type)
-            raise FcError(f"mission upload refused: {reason}")
-        self._total = len(full)
+            raise FcError(f"{_KIND.get(mission_type, 'mission')} upload refused: {reason}")
+        if mission_type == MISSION:
+            self._total = len(full)
 
-    async def download(self) -> list[MissionItem]:
-        """The mission on board (without ArduPilot's home item)."""
+    async def download(self, mission_type: int = MISSION) -> list[MissionItem]:
+        """The mission (or fence, or rally points) on board, without ArduPilot's home item."""
         target, comp = self._target(), self.link.target_component
+
+        def ours(m: Message) -> bool:
+            return getattr(m, "mission_type", MISSION) == mission_type
+
         count_msg = await self._ask(
-            mav.MAVLink_mission_request_list_message(target, comp, MISSION), "MISSION_COUNT"
+            mav.MAVLink_mission_request_list_message(target, comp, mission_type),
+            "MISSION_COUNT",
+            ours,
         )
         items: list[MissionItem] = []
         for seq in range(count_msg.count):
             item = await self._ask(
-                mav.MAVLink_mission_request_int_message(target, comp, seq, MISSION),
+                mav.MAVLink_mission_request_int_message(target, comp, seq, mission_type),
                 "MISSION_ITEM_INT",
-                lambda m, seq=seq: m.seq == seq,
+                lambda m, seq=seq: m.seq == seq and ours(m),
             )
             items.append(MissionItem.from_message(item))
-        self._send(mav.MAVLink_mission_ack_message(target, comp, mav.MAV_MISSION_ACCEPTED, MISSION))
+        ack = mav.MAVLink_mission_ack_message(target, comp, mav.MAV_MISSION_ACCEPTED, mission_type)
+        self._send(ack)
+        if mission_type != MISSION:
+            return items
         self._total = len(items)
         return items[self.offset :]
 

@@ -72,6 +72,26 @@ async def read_param(link: MavlinkLink, name: str, timeout_s: float = 1.0) -> fl
     return None if answer is None else float(answer.param_value)
 
 
+async def set_param(
+    link: MavlinkLink, name: str, value: float, *, timeout_s: float = 1.0, retries: int = 3
+) -> None:
+    """Set a parameter (PARAM_SET) and wait until the autopilot's PARAM_VALUE echoes the new
+    value, as ground stations confirm it; :class:`FcError` if it never does."""
+    message = mav.MAVLink_param_set_message(
+        link.target_system, link.target_component, name.encode(), float(value),
+        mav.MAV_PARAM_TYPE_REAL32,
+    )  # fmt: skip
+
+    def echo(m: Message) -> bool:
+        return text_field(m.param_id) == name and abs(float(m.param_value) - value) < 1e-3
+
+    for _ in range(retries):
+        link.send(message)
+        if await link.wait_for("PARAM_VALUE", echo, timeout_s) is not None:
+            return
+    raise FcError(f"the autopilot did not take {name} = {value:g} ({link.describe()})")
+
+
 async def read_params(
     link: MavlinkLink,
     wanted: tuple[tuple[str, tuple[tuple[str, float], ...]], ...],

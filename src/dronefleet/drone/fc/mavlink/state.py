@@ -23,10 +23,15 @@ from dronefleet.vehicle.base import (
     BatteryState,
     FcError,
     FlightMode,
+    GpsFix,
+    GpsState,
     VehicleState,
+    WindEstimate,
     telemetry_sample,
 )
 
+#: MAVLink GPS_FIX_TYPE: 0 no GPS, 1 no fix, 2 2-D, 3 3-D, 4 DGPS, 5-6 RTK (and 3-D).
+_GPS_FIX = {0: GpsFix.NO_GPS, 1: GpsFix.NO_FIX, 2: GpsFix.FIX_2D}
 _IN_AIR_STATES = {
     mav.MAV_LANDED_STATE_IN_AIR,
     mav.MAV_LANDED_STATE_TAKEOFF,
@@ -63,6 +68,23 @@ class VehicleView:
     def velocity(self) -> NED:
         pos = self.link.latest.get("GLOBAL_POSITION_INT")
         return NED(0.0, 0.0, 0.0) if pos is None else NED(pos.vx / 100, pos.vy / 100, pos.vz / 100)
+
+    def gps(self) -> GpsState:
+        """GPS_RAW_INT's fix type (3 and better: a 3-D fix) and satellites."""
+        raw = self.link.latest.get("GPS_RAW_INT")
+        if raw is None:
+            return GpsState(GpsFix.NO_GPS, 0)
+        fix = _GPS_FIX.get(raw.fix_type, GpsFix.FIX_3D)
+        hdop = raw.eph / 100.0 if raw.eph != 0xFFFF else None
+        return GpsState(fix, raw.satellites_visible if raw.satellites_visible != 255 else 0, hdop)
+
+    def wind(self) -> WindEstimate | None:
+        """ArduPilot's wind estimate (its WIND message), or None from an autopilot that sends
+        none (PX4 sends WIND_COV, not read here): the ground then says "unknown"."""
+        wind = self.link.latest.get("WIND")
+        if wind is None:
+            return None
+        return WindEstimate(max(0.0, float(wind.speed)), float(wind.direction) % 360.0)
 
     def battery(self) -> BatteryState:
         status = self.link.latest.get("SYS_STATUS")

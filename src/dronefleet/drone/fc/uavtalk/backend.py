@@ -32,6 +32,8 @@ from dronefleet.vehicle.base import (
     BatteryState,
     FcError,
     FlightMode,
+    GpsFix,
+    GpsState,
     VehicleState,
     telemetry_sample,
 )
@@ -48,6 +50,8 @@ _INITIAL = (
 )
 #: Wall seconds without a FlightStatus before a wait gives up (it comes five times a second).
 _STATUS_SILENCE_S = 5.0
+#: GPSPosition.Status: anything better than Fix2D (Fix3D, Diff3D) is a 3-D fix.
+_GPS_FIX = {"NoGPS": GpsFix.NO_GPS, "NoFix": GpsFix.NO_FIX, "Fix2D": GpsFix.FIX_2D}
 
 
 class UAVTalkFlightController:
@@ -162,6 +166,16 @@ class UAVTalkFlightController:
     def position(self) -> LLA:
         gps = self._si("GPSPosition")
         return LLA(gps["Latitude"], gps["Longitude"], gps["Altitude"])
+
+    def gps(self) -> GpsState:
+        """GPSPosition's Status (NoGPS, NoFix, Fix2D, Fix3D, Diff3D) and Satellites; dRonin
+        estimates no wind, so this backend has no ``wind()``."""
+        values = self.link.latest("GPSPosition")
+        if values is None:
+            return GpsState(GpsFix.NO_GPS, 0)
+        gps = si_view(self.registry["GPSPosition"], values)
+        fix = _GPS_FIX.get(str(gps["Status"]), GpsFix.FIX_3D)
+        return GpsState(fix, int(gps["Satellites"]), gps.get("HDOP"))
 
     def home(self) -> LLA:
         home = self._si("HomeLocation")

@@ -1,5 +1,6 @@
 // Call: the seed's panic button (5.1). One big button; the nearest drone comes to you.
 import { api } from "../api.js";
+import { dronePanel } from "../drone-panel.js";
 import { droneIcon, latLngOf, makeMap } from "../map.js";
 import { distanceM, el, fmtDuration } from "../ui.js";
 
@@ -12,7 +13,10 @@ export async function mount(root, ctx) {
   const info = el("p", { id: "call-status", class: "call-status", role: "status", "aria-live": "polite" },
     ctx.me.can_command ? "Press the button: the nearest drone comes and hovers above you." : "Viewer token: calling is disabled.");
   const mapBox = el("div", { class: "map small", id: "call-map" });
-  root.append(el("section", { class: "phone" }, el("h1", {}, "Call a drone"), button, info, mapBox));
+  // The drone that comes, with its figures and buttons (send it home when you are done).
+  const panel = dronePanel(ctx, { idPrefix: "call-panel" });
+  panel.element.hidden = true;
+  root.append(el("section", { class: "phone" }, el("h1", {}, "Call a drone"), button, info, mapBox, panel.element));
   const map = await makeMap(mapBox);
   const s = { me: null, mission: null, drone: null, marker: null, arrived: false, seen: [] };
 
@@ -47,6 +51,8 @@ export async function mount(root, ctx) {
       const record = await api("/call", { method: "POST", body: { lat: s.me.lat, lon: s.me.lon, altitude_m: 10 } });
       s.mission = record.mission_id;
       s.drone = record.drones[0];
+      panel.show(s.drone);
+      panel.element.hidden = false;
       info.dataset.state = "coming";
       update();
     } catch (err) {
@@ -74,5 +80,5 @@ export async function mount(root, ctx) {
   }
 
   ctx.fleet.addEventListener("change", update);
-  return () => { ctx.fleet.removeEventListener("change", update); map.remove(); };
+  return () => { panel.destroy(); ctx.fleet.removeEventListener("change", update); map.remove(); };
 }

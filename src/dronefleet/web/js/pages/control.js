@@ -1,5 +1,6 @@
 // Control: the seed's commands for one drone as buttons; destructive ones ask first.
 import { api } from "../api.js";
+import { dronePanel } from "../drone-panel.js";
 import { droneIcon, latLngOf, makeMap } from "../map.js";
 import { el, field, toast } from "../ui.js";
 
@@ -29,8 +30,10 @@ export async function mount(root, ctx) {
   }, c.label));
   const goto = el("p", { class: "hint" }, ctx.me.can_command ? "Click the map to send the drone there (at the altitude above)." : "Viewer token: commands are disabled.");
   const mapBox = el("div", { class: "map", id: "control-map" });
+  const panel = dronePanel(ctx, { idPrefix: "control-panel" });
+  select.addEventListener("change", () => panel.show(select.value));
   root.append(el("h1", {}, "Control"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
-    field("Drone", select), field("Take-off altitude (m)", altitude), field("Move by (m)", step),
+    field("Drone", select), panel.element, field("Take-off altitude (m)", altitude), field("Move by (m)", step),
     el("div", { class: "buttons" }, ...buttons),
     el("label", { class: "check" }, force, " Force the disarm, even in flight (the motors stop: it falls)"),
     goto, result)));
@@ -39,6 +42,7 @@ export async function mount(root, ctx) {
     const chosen = select.value;
     select.replaceChildren(...ctx.fleet.list().map((d) => el("option", { value: d.drone_id }, `${d.drone_id} — ${d.status === "lost" ? "lost" : d.state}`)));
     if (chosen) select.value = chosen;
+    if (panel.selected !== select.value) panel.show(select.value);
   }
 
   async function post(command, body) {
@@ -71,7 +75,7 @@ export async function mount(root, ctx) {
     post(c.command, body);
   }
 
-  const map = await makeMap(mapBox);
+  const map = await makeMap(mapBox, { search: true });
   const markers = new Map();
   // A click on the map sends the drone there: asked first, with how far it is (issue 14).
   map.on("click", (e) => {
@@ -96,5 +100,5 @@ export async function mount(root, ctx) {
   }
   ctx.fleet.addEventListener("change", render);
   render();
-  return () => { ctx.fleet.removeEventListener("change", render); map.remove(); };
+  return () => { panel.destroy(); ctx.fleet.removeEventListener("change", render); map.remove(); };
 }

@@ -1,8 +1,17 @@
 // Fleet: every drone live on the map (position, heading, trail, colour by state) and in a table.
+import { batteryLevel, dronePanel } from "../drone-panel.js";
 import { droneIcon, latLngOf, makeMap, stateColor } from "../map.js";
 import { el, fmtAgo } from "../ui.js";
 
 const L = window.L;
+
+/** The battery with its level in words as well as colour (issue 14). */
+function batteryCell(d) {
+  if (!d.battery) return el("td", {}, "—");
+  const pct = d.battery.remaining_pct;
+  const level = batteryLevel(pct);
+  return el("td", { class: `battery ${level.level}`, "data-level": level.level }, `${pct.toFixed(0)} % ${level.word}`);
+}
 
 export async function mount(root, ctx) {
   const mapBox = el("div", { class: "map", id: "fleet-map", role: "region", "aria-label": "Fleet map" });
@@ -11,21 +20,33 @@ export async function mount(root, ctx) {
     el("caption", {}, "Drones"),
     el("thead", {}, el("tr", {}, ...["Drone", "State", "Battery", "Mode", "Mission", "Last alarm", "Last seen"].map((h) => el("th", { scope: "col" }, h)))),
     body);
-  root.append(el("h1", {}, "Fleet"), el("div", { class: "split" }, mapBox, el("div", { class: "side" }, table)));
-  const map = await makeMap(mapBox);
+  // The side scrolls on a phone: focusable so a keyboard can scroll it too (axe: scrollable-region).
+  const panel = dronePanel(ctx, { idPrefix: "fleet-panel" });
+  const select = (id) => {
+    panel.show(id);
+    for (const b of body.querySelectorAll("button.select")) b.setAttribute("aria-pressed", String(b.dataset.drone === id));
+  };
+  root.append(el("h1", {}, "Fleet"), el("div", { class: "split" }, mapBox,
+    el("div", { class: "side", tabindex: "0", role: "region", "aria-label": "Drones and the selected drone" }, table, panel.element)));
+  const map = await makeMap(mapBox, { search: true });
   const markers = new Map();
   let fitted = false;
 
   function render() {
     const drones = ctx.fleet.list();
+    // Rows are rebuilt every update: a keyboard on a drone's button stays on it.
+    const focused = body.contains(document.activeElement) ? document.activeElement.dataset.drone : null;
     body.replaceChildren(...drones.map((d) => el("tr", { "data-drone": d.drone_id, "data-status": d.status || "", "data-alarm": d.alarm ? d.alarm.level : "", class: d.status === "lost" ? "lost" : "" },
-      el("th", { scope: "row" }, el("span", { class: "dot", style: `background:${stateColor(d)}` }), d.drone_id),
+      el("th", { scope: "row" }, el("span", { class: "dot", style: `background:${stateColor(d)}` }),
+        el("button", { type: "button", class: "select link-button", "data-drone": d.drone_id, "aria-pressed": String(panel.selected === d.drone_id),
+          title: `Show ${d.drone_id} below`, onclick: () => select(d.drone_id) }, d.drone_id)),
       el("td", { class: "state" }, d.status === "lost" ? "LOST" : d.status === "autopilot link lost" ? "AUTOPILOT LINK LOST" : d.state || "—"),
-      el("td", {}, d.battery ? `${d.battery.remaining_pct.toFixed(0)} %` : "—"),
+      batteryCell(d),
       el("td", {}, d.mode || "—"),
       el("td", {}, d.mission_id || "—"),
       el("td", { class: d.alarm ? "alarm" : "" }, d.alarm ? `${d.alarm.level} ${d.alarm.message} (${fmtAgo(Date.now() / 1000 - d.alarm.at)})` : "—"),
       el("td", {}, fmtAgo(d.last_seen ? Math.max(0, Date.now() / 1000 - d.last_seen) : d.seen_ago_s)))));
+    if (focused) body.querySelector(`button.select[data-drone="${CSS.escape(focused)}"]`)?.focus();
     const points = [];
     for (const d of drones) {
       const at = latLngOf(d.position);
@@ -34,7 +55,7 @@ export async function mount(root, ctx) {
       let m = markers.get(d.drone_id);
       if (!m) {
         m = {
-          marker: L.marker(at, { icon: droneIcon(d), keyboard: false }).addTo(map),
+          marker: L.marker(at, { icon: droneIcon(d), keyboard: false }).on("click", () => select(d.drone_id)).addTo(map),
           trail: L.polyline([], { weight: 2, opacity: 0.6 }).addTo(map),
         };
         markers.set(d.drone_id, m);
@@ -58,6 +79,7 @@ export async function mount(root, ctx) {
   const ticker = setInterval(render, 2000);
   render();
   return () => {
+    panel.destroy();
     ctx.fleet.removeEventListener("change", onChange);
     clearInterval(ticker);
     map.remove();

@@ -1,13 +1,21 @@
 // Planner: draw an area (polygon or the seed's three clicks), preview it, send it, watch it fly.
 import { api } from "../api.js";
+import { downloadMissionLog } from "../download.js";
+import { dronePanel } from "../drone-panel.js";
 import { colorFor, droneIcon, latLngOf, makeMap } from "../map.js";
 import { addMissionOptions } from "../missions.js";
 import { el, field, fmtDuration, toast } from "../ui.js";
+import { planFiles } from "./planner-files.js";
+import { rallyEditor } from "./planner-rally.js";
+import { preflightDialog } from "./planner-preflight.js";
 import { stepEditor } from "./planner-steps.js";
 
 const L = window.L;
 // GoPro Hero3 (the seed's camera), for the camera+overlap spacing.
 const CAMERA = { sensor_width_mm: 6.17, sensor_height_mm: 4.55, focal_length_mm: 2.77, image_width_px: 4000, image_height_px: 3000 };
+const END_NAMES = { rtl: "return home and land", land: "land where the work ends", hold: "hold there" };
+/** A refusal that names a step ("step 3 (navigate): ...", ground/planner/step_order.py). */
+const STEP_REFUSAL = /^step (\d+) \(/;
 
 export async function mount(root, ctx) {
   const s = { mode: "polygon", vertices: [], clicks: [], missionId: null };
@@ -22,15 +30,15 @@ export async function mount(root, ctx) {
     action: el("select", { id: "plan-action" }, ...["none", "takepic", "read_sensors"].map((a) => el("option", { value: a }, a))),
     hold: num("plan-hold", 2, { min: 0 }),
     flyThrough: el("input", { type: "checkbox", id: "plan-fly-through" }),
-    polygon: el("textarea", { id: "plan-polygon", rows: 4, placeholder: "lat, lon per line" }),
-    fence: el("textarea", { id: "plan-fence", rows: 3, placeholder: "lat, lon per line (none: no fence)" }),
+    polygon: el("textarea", { id: "plan-polygon", rows: 4, placeholder: "lat, lon (°) per line" }),
+    fence: el("textarea", { id: "plan-fence", rows: 3, placeholder: "lat, lon (°) per line (none: no fence)" }),
     ceiling: el("input", { type: "number", id: "plan-fence-ceiling", placeholder: "none", min: 1, step: "any" }),
   };
   const colorOf = (id) => colorFor(Math.max(0, ctx.fleet.list().findIndex((d) => d.drone_id === id)));
   const cornersOf = (text) => text.split("\n").map((line) => line.split(",").map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
   // Every mission ends with a safe action (ground/planner/ends.py): home by default.
   const endAction = el("select", { id: "plan-end" },
-    el("option", { value: "rtl" }, "Return home and land"),
+    el("option", { value: "rtl" }, "Return to launch and land (default)"),
     el("option", { value: "land" }, "Land where the work ends"),
     el("option", { value: "hold" }, "Hold there (an operator takes over)"));
   const drones = el("fieldset", { class: "drones", id: "plan-drones" }, el("legend", {}, "Drones"));
@@ -38,7 +46,18 @@ export async function mount(root, ctx) {
   const watch = el("select", { id: "plan-watch" }, el("option", { value: "" }, "— the one sent from here —"));
   const estimate = el("div", { id: "plan-estimate" });
   const readingsKey = el("p", { id: "readings-key", class: "hint", hidden: true });
-  const editor = stepEditor(() => {});
+  // A new "fly to a point" starts at the chosen drone's home, or where the map is looking.
+  const editor = stepEditor(() => editor.markError(null), () => {
+    const first = drones.querySelector("input:checked");
+    const drone = first && ctx.fleet.drones.get(first.value);
+    if (drone && drone.home) return { lat: drone.home.lat, lon: drone.home.lon };
+    const c = map.getCenter();
+    return { lat: c.lat, lon: c.lng };
+  });
+  const checklist = preflightDialog();
+  const panel = dronePanel(ctx, { idPrefix: "plan-panel" });
+  const rally = rallyEditor();
+  const files = planFiles({ spec: () => spec(), load: (answer) => load(answer) });
   const mapBox = el("div", { class: "map", id: "planner-map" });
   const can = ctx.me.can_command;
   const btn = (id, label, onclick, extra = {}) => el("button", { type: "button", id, onclick, ...extra }, label);
@@ -50,13 +69,13 @@ export async function mount(root, ctx) {
       btn("draw-finish", "Finish shape", finish),
       btn("draw-clear", "Clear", clearShape)),
     el("p", { class: "hint", id: "draw-hint" }, "Click the map to add corners, then Finish shape."),
-    field("Corners", inputs.polygon),
+    field("Corners (lat, lon in °)", inputs.polygon),
     field("Spacing from", inputs.spacingKind), field("Line spacing (m)", inputs.spacing),
-    field("Front overlap", inputs.front), field("Side overlap", inputs.side),
-    field("Altitude (m)", inputs.altitude), field("Angle (°)", inputs.angle),
-    field("Action at each waypoint", inputs.action), field("Hold (s)", inputs.hold),
+    field("Front overlap (fraction, 0–0.95)", inputs.front), field("Side overlap (fraction, 0–0.95)", inputs.side),
+    field("Altitude above home (m)", inputs.altitude), field("Angle (° from north; empty: best)", inputs.angle),
+    field("Action at each waypoint", inputs.action), field("Hold at each waypoint (s)", inputs.hold),
     // Checked before a mission is accepted: a share leaving it is refused with the reason.
-    field("Geofence corners (fly inside)", inputs.fence), field("Fence ceiling (m above home)", inputs.ceiling),
+    field("Geofence corners (lat, lon in °; fly inside)", inputs.fence), field("Fence ceiling (m above home)", inputs.ceiling),
     el("div", { class: "buttons" }, btn("fence-from-shape", "Fence = this shape", () => { inputs.fence.value = inputs.polygon.value; drawFence(); })),
     el("div", { class: "field check" }, inputs.flyThrough, el("label", { for: "plan-fly-through" }, "Fly through (photograph without stopping)")));
   const stepsTab = el("div", { id: "tab-steps", hidden: true },
@@ -66,7 +85,7 @@ export async function mount(root, ctx) {
   kind.addEventListener("change", () => { areaTab.hidden = kind.value !== "area"; stepsTab.hidden = kind.value !== "steps"; });
 
   root.append(el("h1", {}, "Planner"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
-    field("Mission", kind), areaTab, stepsTab, drones, field("When done", endAction),
+    files.box, field("Mission", kind), areaTab, stepsTab, drones, field("When done", endAction), rally.box,
     el("div", { class: "buttons" },
       btn("plan-preview", "Preview", preview, { disabled: !can }),
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
@@ -74,7 +93,10 @@ export async function mount(root, ctx) {
     el("div", { class: "buttons" },
       btn("plan-pause", "Pause", () => pauseOrResume("pause"), { disabled: !can, title: "Its drones hold; Resume flies on" }),
       btn("plan-resume", "Resume", () => pauseOrResume("resume"), { disabled: !can, title: "Fly on with a paused mission (paused here, or a drone taken over by someone else)" }),
-      btn("plan-abort", "Abort: all home", abort, { class: "danger", disabled: !can })))));
+      btn("plan-abort", "Abort: all home", abort, { class: "danger", disabled: !can }),
+      btn("plan-log", "Mission log", saveLog, { class: "small", title: "Download the watched mission's log (the Replay page reads it)" })),
+    el("p", { class: "hint" }, "Click a drone on the map for its figures and buttons."), panel.element)),
+    checklist.element);
 
   // Read when opened; on an error the list stays as it was and the stream keeps the status.
   const fillWatch = () => addMissionOptions(watch).catch(() => {});
@@ -87,7 +109,7 @@ export async function mount(root, ctx) {
   });
   fillWatch();
 
-  const map = await makeMap(mapBox);
+  const map = await makeMap(mapBox, { search: true });
   const shape = L.polygon([], { color: "#2563eb", weight: 2, fillOpacity: 0.1 }).addTo(map);
   const corners = L.layerGroup().addTo(map);
   const route = L.polyline([], { color: "#f97316", weight: 2, dashArray: "4 4" }).addTo(map);
@@ -96,6 +118,8 @@ export async function mount(root, ctx) {
   const trails = new Map();
   const handoverLayer = L.layerGroup().addTo(map);
   const readingLayer = L.layerGroup().addTo(map);
+  rally.attach(map);
+  files.attach(map);
 
   function setMode(mode) {
     s.mode = mode;
@@ -115,7 +139,7 @@ export async function mount(root, ctx) {
   }
 
   map.on("click", (e) => {
-    if (kind.value !== "area") return;
+    if (kind.value !== "area" || rally.active()) return;
     const p = [e.latlng.lat, e.latlng.lng];
     if (s.mode === "three") {
       s.clicks.push(p);
@@ -138,6 +162,34 @@ export async function mount(root, ctx) {
     drawShape();
   });
 
+  /** Fill the form from an imported file (planner-files.js): its steps or area, fence, rally. */
+  function load({ spec: imported }) {
+    const fence = imported.options.geofence || {};
+    inputs.fence.value = (fence.inclusion || []).map(([a, b]) => `${a}, ${b}`).join("\n");
+    inputs.ceiling.value = fence.ceiling_m ?? "";
+    drawFence();
+    rally.set(imported.options.rally_points || []);
+    kind.value = imported.steps ? "steps" : "area";
+    kind.dispatchEvent(new Event("change"));
+    const a = imported.area;
+    if (imported.steps) {
+      editor.clear();
+      imported.steps.forEach((step) => editor.add(step));
+      route.setLatLngs(imported.steps.filter((x) => x.command === "navigate").map((x) => [x.lat, x.lon]));
+    } else {
+      s.vertices = a.polygon;
+      drawShape();
+      inputs.spacingKind.value = "spacing";
+      inputs.spacing.value = a.spacing_m;
+      inputs.altitude.value = a.altitude_m;
+      inputs.angle.value = a.angle_deg ?? "";
+      inputs.action.value = a.action;
+      inputs.flyThrough.checked = a.fly_through;
+    }
+    const seen = [...(a ? a.polygon : []), ...route.getLatLngs(), ...(fence.inclusion || []), ...rally.points().map((p) => [p.lat, p.lon])];
+    if (seen.length) map.fitBounds(L.latLngBounds(seen), { padding: [40, 40], maxZoom: 19 });
+  }
+
   function finish() {
     if (s.vertices.length < 3) return toast("an area needs at least three corners", "error");
     drawShape();
@@ -156,11 +208,12 @@ export async function mount(root, ctx) {
     const chosen = [...drones.querySelectorAll("input:checked")].map((i) => i.value);
     const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen, options: { end_action: endAction.value } };
     const fence = cornersOf(inputs.fence.value);
-    if (fence.length || inputs.ceiling.value !== "") {
-      body.options.geofence = {};
+    if (fence.length || inputs.ceiling.value !== "" || files.exclusions().length) {
+      body.options.geofence = { exclusions: files.exclusions() };
       if (fence.length) body.options.geofence.inclusion = fence;
       if (inputs.ceiling.value !== "") body.options.geofence.ceiling_m = Number(inputs.ceiling.value);
     }
+    if (rally.points().length) body.options.rally_points = rally.points();
     if (kind.value === "steps") {
       body.steps = editor.steps();
       return body;
@@ -182,7 +235,21 @@ export async function mount(root, ctx) {
     return body;
   }
 
+  /** A refusal on the page: beside its step when it names one (a step list's order). */
+  function refused(what, err) {
+    const match = kind.value === "steps" && STEP_REFUSAL.exec(err.message);
+    editor.markError(match ? Number(match[1]) : null, err.message);
+    estimate.textContent = `${what} failed: ${err.message}`;
+  }
+
+  function batteryLeft(d) {
+    // A share below the reserve is accepted only with a handover planned (the notes say so).
+    const handover = d.notes.some((n) => n.includes("handed over"));
+    return `${d.battery_end_pct} %${d.battery_end_pct < 20 ? (handover ? " (handover planned)" : " (below reserve!)") : ""}`;
+  }
+
   async function preview() {
+    editor.markError(null);
     try {
       const answer = await api("/missions/preview", { method: "POST", body: spec() });
       const points = answer.waypoints.map((w) => [w.lat, w.lon]);
@@ -190,29 +257,49 @@ export async function mount(root, ctx) {
       waypoints.clearLayers();
       points.forEach((p, i) => L.circleMarker(p, { radius: 3, color: "#f97316" }).bindTooltip(`#${i + 1}`).addTo(waypoints));
       estimate.replaceChildren(el("table", { class: "grid", id: "estimate-table" },
-        el("caption", {}, `${points.length} waypoints${answer.area_m2 ? `, ${answer.area_m2} m²` : ""}`),
-        el("thead", {}, el("tr", {}, ...["Drone", "Steps", "Time", "Battery used", "Battery left", "Notes"].map((h) => el("th", { scope: "col" }, h)))),
+        el("caption", {}, `${points.length} waypoints${answer.area_m2 ? `, ${answer.area_m2} m²` : ""}; when done: ${END_NAMES[answer.end_action] || answer.end_action}`),
+        el("thead", {}, el("tr", {}, ...["Drone", "Steps", "Time", "Battery used", "Battery left", "Ends with", "Notes"].map((h) => el("th", { scope: "col" }, h)))),
         el("tbody", {}, ...answer.drones.map((d) => el("tr", { "data-drone": d.drone_id },
           // The drone's colour on the map (its trail), and what the plan decided for it.
           el("th", { scope: "row" }, el("span", { class: "swatch", style: `background:${colorOf(d.drone_id)}`, "aria-hidden": "true" }), d.drone_id),
           el("td", {}, d.steps), el("td", {}, fmtDuration(d.duration_s)),
-          el("td", {}, `${d.battery_used_pct} %`), el("td", {}, `${d.battery_end_pct} %`),
+          el("td", {}, `${d.battery_used_pct} %`), el("td", { class: "battery-left" }, batteryLeft(d)),
+          el("td", { class: "ends" }, d.end.length ? d.end.join(", ") : answer.end_action === "hold" ? "hold" : "its own landing"),
           el("td", { class: "notes" }, d.notes.length ? d.notes.join("; ") : "—"))))));
     } catch (err) {
-      estimate.textContent = `Preview failed: ${err.message}`;
+      refused("Preview", err);
     }
   }
 
+  /** Send: the pre-flight checklist first (its failures need an override with a reason). */
   async function send() {
+    editor.markError(null);
+    const body = spec();
+    let decision;
     try {
-      const record = await api("/missions", { method: "POST", body: spec(), query: { start: "true" } });
+      decision = await checklist.ask(await api("/missions/preflight", { method: "POST", body }));
+    } catch (err) {
+      refused("Pre-flight check", err);
+      status.textContent = `Send failed: ${err.message}`;
+      return;
+    }
+    if (!decision) return;
+    try {
+      const query = { start: "true", override: decision.override || undefined };
+      const record = await api("/missions", { method: "POST", body, query });
       s.missionId = record.mission_id;
       showMission(record);
-      toast(`mission ${record.mission_id} sent`);
+      toast(`mission ${record.mission_id} sent${decision.override ? " (checks overridden)" : ""}`);
     } catch (err) {
+      refused("Send", err);
       status.textContent = `Send failed: ${err.message}`;
       toast(`send failed: ${err.message}`, "error");
     }
+  }
+
+  async function saveLog() {
+    if (!s.missionId) { toast("no mission is watched", "error"); return; }
+    try { await downloadMissionLog(s.missionId); } catch (err) { toast(`mission log: ${err.message}`, "error"); }
   }
 
   /** Stop the watched mission and send its drones home (RTL); never waits for a confirmation. */
@@ -300,7 +387,7 @@ export async function mount(root, ctx) {
       const at = latLngOf(d.position);
       if (!at) return;
       if (!markers.has(d.drone_id)) {
-        markers.set(d.drone_id, L.marker(at, { keyboard: false }).addTo(map));
+        markers.set(d.drone_id, L.marker(at, { keyboard: false }).on("click", () => panel.show(d.drone_id)).addTo(map));
         trails.set(d.drone_id, L.polyline([], { color: colorFor(i), weight: 2 }).addTo(map));
       }
       markers.get(d.drone_id).setLatLng(at).setIcon(droneIcon(d));
@@ -324,5 +411,5 @@ export async function mount(root, ctx) {
   const poller = setInterval(poll, 3000);
   ctx.fleet.addEventListener("change", render);
   render();
-  return () => { off(); clearInterval(poller); ctx.fleet.removeEventListener("change", render); map.remove(); };
+  return () => { off(); panel.destroy(); clearInterval(poller); ctx.fleet.removeEventListener("change", render); map.remove(); };
 }

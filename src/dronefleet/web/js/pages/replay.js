@@ -1,5 +1,6 @@
 // Replay: a mission log (dropped file or a finished mission), each drone's path on a timeline.
 import { api } from "../api.js";
+import { downloadMissionLog } from "../download.js";
 import { colorFor, makeMap } from "../map.js";
 import { addMissionOptions } from "../missions.js";
 import { el, field, fmtDuration, toast } from "../ui.js";
@@ -9,14 +10,20 @@ const L = window.L;
 export async function mount(root, ctx) {
   const pick = el("select", { id: "replay-mission" }, el("option", { value: "" }, "— pick a mission —"));
   const file = el("input", { type: "file", id: "replay-file", accept: ".json,application/json" });
-  const drop = el("div", { class: "drop", id: "replay-drop", tabindex: "0" }, "Drop a mission log (.json) here, or choose a file: ", file);
+  const drop = el("div", { class: "drop", id: "replay-drop" },
+    el("label", { for: "replay-file" }, "Drop a mission log (.json) here, or choose a file: "), file);
+  const download = el("button", { type: "button", id: "replay-download", class: "small", disabled: true, onclick: () => saveLog() }, "Download its log");
   const slider = el("input", { type: "range", id: "replay-time", min: "0", max: "1000", value: "1000", disabled: true });
   const clock = el("output", { id: "replay-clock", for: "replay-time" }, "—");
+  // Play at 1×, 2×, 5× or 10× vehicle time (issue 14); the timeline follows.
+  const play = el("button", { type: "button", id: "replay-play", disabled: true, "aria-pressed": "false", onclick: () => toggle() }, "▶ Play");
+  const speed = el("select", { id: "replay-speed" }, ...[1, 2, 5, 10].map((x) => el("option", { value: String(x) }, `${x}×`)));
   const title = el("p", { id: "replay-title", role: "status" }, "No log loaded.");
-  const steps = el("div", { id: "replay-steps", class: "scroll" });
+  const steps = el("div", { id: "replay-steps", class: "scroll", tabindex: "0", role: "region", "aria-label": "Steps flown" });
   const mapBox = el("div", { class: "map", id: "replay-map" });
   root.append(el("h1", {}, "Replay"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
-    field("Finished mission", pick), drop, title, field("Timeline", slider), clock, steps)));
+    field("Finished mission", pick), el("div", { class: "buttons" }, download), drop, title, field("Timeline", slider), clock,
+    el("div", { class: "controls" }, play, field("Speed", speed)), steps)));
   const map = await makeMap(mapBox);
   const layers = L.layerGroup().addTo(map);
   let tracks = [];
@@ -28,6 +35,7 @@ export async function mount(root, ctx) {
     toast(`missions: ${err.message}`, "error");
   }
   pick.addEventListener("change", async () => {
+    download.disabled = !pick.value;
     if (!pick.value) return;
     try { show(await api(`/missions/${encodeURIComponent(pick.value)}/log`)); } catch (err) { toast(err.message, "error"); }
   });
@@ -42,7 +50,37 @@ export async function mount(root, ctx) {
     drop.classList.remove("over");
     if (e.dataTransfer.files[0]) readFile(e.dataTransfer.files[0]);
   });
-  slider.addEventListener("input", () => seek(Number(slider.value) / 1000));
+  slider.addEventListener("input", () => { stop(); seek(Number(slider.value) / 1000); });
+
+  let timer = null;
+  let last = 0;
+  /** Play from where the timeline is (from the start when at the end), `speed` × vehicle time. */
+  function toggle() {
+    if (timer) return stop();
+    if (Number(slider.value) >= 1000) slider.value = "0";
+    last = performance.now();
+    timer = setInterval(() => {
+      const now = performance.now();
+      const length = span[1] - span[0];
+      const step = length > 0 ? ((now - last) / 1000) * Number(speed.value) / length : 1;
+      last = now;
+      const at = Math.min(1, Number(slider.value) / 1000 + step);
+      slider.value = String(Math.round(at * 1000));
+      seek(at);
+      if (at >= 1) stop();
+    }, 100);
+    play.textContent = "⏸ Pause";
+    play.setAttribute("aria-pressed", "true");
+  }
+  function stop() {
+    clearInterval(timer);
+    timer = null;
+    play.textContent = "▶ Play";
+    play.setAttribute("aria-pressed", "false");
+  }
+  async function saveLog() {
+    try { await downloadMissionLog(pick.value); } catch (err) { toast(`mission log: ${err.message}`, "error"); }
+  }
 
   function show(log) {
     if (!log || !Array.isArray(log.drones)) throw new Error("no drones in this file");
@@ -62,10 +100,15 @@ export async function mount(root, ctx) {
     span = times.length ? [Math.min(...times), Math.max(...times)] : [0, 0];
     const all = tracks.flatMap((t) => t.path.map((p) => [p.lat, p.lon]));
     if (all.length) map.fitBounds(L.latLngBounds(all).pad(0.2));
+    stop();
     slider.disabled = false;
+    play.disabled = false;
     slider.value = "1000";
     seek(1);
-    title.textContent = `${log.mission_id} “${log.name || ""}”: ${log.state}, ${log.drones.length} drone(s), ${log.steps_done}/${log.steps_planned} steps, ${log.handovers || 0} handover(s)`;
+    // The log lists its handovers (the mission summary counts them): "[object Object]" was shown.
+    const handovers = Array.isArray(log.handovers) ? log.handovers.length : Number(log.handovers) || 0;
+    title.textContent = `${log.mission_id} “${log.name || ""}”: ${log.state}, ${log.drones.length} drone(s), ${log.steps_done}/${log.steps_planned} steps, ${handovers} handover(s)`;
+    title.dataset.handovers = String(handovers);
     title.dataset.mission = log.mission_id;
     renderSteps();
   }
@@ -91,5 +134,5 @@ export async function mount(root, ctx) {
         el("td", {}, fmtDuration(s.duration_s))))))));
   }
 
-  return () => map.remove();
+  return () => { stop(); map.remove(); };
 }

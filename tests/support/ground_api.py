@@ -1,0 +1,55 @@
+"""Ground services in this process with an operator's and a viewer's REST client, once the
+drones a test needs are heard: the set-up of the planner's REST tests."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+from dronefleet.ground.manager.auth import Role, TokenBook
+from dronefleet.ground.services import GroundServices
+
+
+def heard(*drone_ids: str) -> Callable[[list[dict[str, Any]]], bool]:
+    """Ready when the fleet lists exactly these drones."""
+    return lambda fleet: {d["drone_id"] for d in fleet} == set(drone_ids)
+
+
+@asynccontextmanager
+async def ground_clients(
+    broker: Any,
+    tmp_path: Path,
+    planner_client_id: str,
+    ready: Callable[[list[dict[str, Any]]], bool],
+) -> AsyncIterator[tuple[httpx.AsyncClient, httpx.AsyncClient]]:
+    """(operator, viewer) clients of ground services on ``broker``, after ``ready`` holds for
+    ``GET /api/v1/drones`` (10 s at most: a test then fails on what it misses)."""
+    ground = GroundServices(
+        broker,
+        store_url=f"sqlite:///{tmp_path}/t.db",
+        state_path=tmp_path / "g.db",
+        http_port=0,
+        planner_client_id=planner_client_id,
+    )
+    async with ground:
+        viewer = await TokenBook(ground.state).issue("viewer", Role.VIEWER)
+        # 30 s: the first plan starts the planning worker's process, slow on a loaded machine.
+        op = httpx.AsyncClient(
+            base_url=ground.http_url,
+            headers={"Authorization": f"Bearer {ground.operator_token}"},
+            timeout=30,
+        )
+        view = httpx.AsyncClient(
+            base_url=ground.http_url, headers={"Authorization": f"Bearer {viewer}"}, timeout=30
+        )
+        async with op, view:
+            for _ in range(100):
+                if ready((await op.get("/api/v1/drones")).json()):
+                    break
+                await asyncio.sleep(0.1)
+            yield op, view

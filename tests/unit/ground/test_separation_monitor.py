@@ -1,0 +1,111 @@
+"""The live separation monitor's judgement (ground/separation_monitor.py), fed drone telemetry as
+it arrives from the broker; the broker path itself is in
+tests/integration/planner/test_separation_live.py."""
+
+from __future__ import annotations
+
+import math
+
+import orjson
+import pytest
+
+from dronefleet.geo.ned import ned_to_lla
+from dronefleet.geo.types import LLA, NED
+from dronefleet.ground import separation_monitor as sm
+from dronefleet.ground.separation_monitor import CLEAR_S, SeparationMonitor, breach_within
+from dronefleet.messaging.status import Alarm
+
+ORIGIN = LLA(40.63, -8.659, 10.0)
+
+
+def test_a_head_on_approach_is_predicted_when_it_will_enter_the_cylinder() -> None:
+    # 25 m apart, closing at 10 m/s: inside 5 m after 2 s.
+    assert breach_within((25.0, 0.0, 0.0), (-10.0, 0.0, 0.0), 5.0) == pytest.approx(2.0)
+    assert breach_within((60.0, 0.0, 0.0), (-10.0, 0.0, 0.0), 5.0) is None  # 5.5 s away
+
+
+def test_parallel_tracks_8_m_apart_and_a_crossing_4_m_higher_are_not_breaches() -> None:
+    assert breach_within((0.0, 8.0, 0.0), (0.0, 0.0, 0.0), 5.0) is None
+    assert breach_within((0.0, 8.0, 0.0), (3.0, 0.0, 0.0), 5.0) is None
+    assert breach_within((20.0, 0.0, 4.0), (-10.0, 0.0, 0.0), 5.0) is None
+    # ... but one descending onto the other's height while closing is.
+    assert breach_within((20.0, 0.0, 4.0), (-10.0, 0.0, -1.0), 5.0) == pytest.approx(1.5)
+
+
+class _Clock:
+    now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+@pytest.fixture
+def monitor(monkeypatch: pytest.MonkeyPatch) -> tuple[SeparationMonitor, list[Alarm], _Clock]:
+    clock = _Clock()
+    monkeypatch.setattr(sm, "monotonic", clock)
+    mon = SeparationMonitor("mqtt://127.0.0.1:1", client_id="test-separation")
+    sent: list[Alarm] = []
+
+    async def publish(topic: str, message: Alarm, **_: object) -> None:
+        assert topic == "ground/separation/alarms"
+        sent.append(message)
+
+    monkeypatch.setattr(mon.client, "publish", publish)
+    return mon, sent, clock
+
+
+async def feed(mon: SeparationMonitor, drone: str, n: float, e: float, up: float, **kw) -> None:
+    p = ned_to_lla(NED(n, e, -up), ORIGIN)
+    fields = {"lat": p.lat, "lon": p.lon, "alt_m": p.alt_m, "in_air": kw.pop("in_air", 1.0)}
+    fields |= kw
+    payload = orjson.dumps({"drone_id": drone, "vehicle_time_s": 1.0, "fields": fields})
+    await mon._on_telemetry(f"{drone}/telemetry/out", payload)
+
+
+async def test_two_drones_closing_raise_one_warning_then_one_critical_per_encounter(
+    monitor,
+) -> None:
+    mon, sent, clock = monitor
+    # A flies east at 10 m/s towards B, hovering 40 m ahead at the same height.
+    await feed(mon, "B", 0, 40, 10)
+    for step in range(8):
+        clock.now += 0.5
+        await feed(mon, "A", 0, 5.0 * step, 10, ve=10.0)
+    levels = [a.level.value for a in sent]
+    assert levels == ["WARNING", "CRITICAL"]
+    warning, critical = sent
+    assert warning.drone_id == "A" and warning.reading and warning.reading["other_drone"] == "B"
+    assert critical.reading and critical.reading["horizontal_m"] < 5.0
+    status = mon.status()
+    assert (status.predicted_breaches, status.actual_breaches) == (1, 1)
+    assert status.active == ["A/B"]
+    assert status.min_horizontal_m is not None and status.min_horizontal_m < 5.0
+    # Apart again, long enough: the encounter ends; a new approach is a new encounter.
+    await feed(mon, "A", 0, -100, 10)
+    clock.now += CLEAR_S + 0.1
+    await feed(mon, "A", 0, -100, 10)
+    assert mon.status().active == []
+    await feed(mon, "B", 0, 40, 10)  # heard again (its last position was getting stale)
+    await feed(mon, "A", 0, 38, 10)
+    assert mon.status().actual_breaches == 2 and len(sent) == 3
+
+
+async def test_drones_on_the_ground_3_m_apart_and_layered_drones_are_left_alone(monitor) -> None:
+    mon, sent, _ = monitor
+    await feed(mon, "A", 0, 0, 0, in_air=0.0)
+    await feed(mon, "B", 0, 3, 0, in_air=0.0)
+    await feed(mon, "C", 0, 20, 10)
+    await feed(mon, "D", 0, 20, 14)  # right above C, 4 m higher
+    assert sent == []
+    status = mon.status()
+    assert status.min_distance_m == pytest.approx(4.0, abs=0.05)
+    assert status.min_horizontal_m is None  # never within 3 m of height
+    assert math.isclose(status.horizontal_m, 5.0) and status.pairs_compared == 1
+
+
+async def test_a_drone_not_heard_for_a_while_is_not_compared(monitor) -> None:
+    mon, sent, clock = monitor
+    await feed(mon, "A", 0, 0, 10)
+    clock.now += sm.STALE_S + 1
+    await feed(mon, "B", 0, 1, 10)
+    assert sent == [] and mon.status().pairs_compared == 0
