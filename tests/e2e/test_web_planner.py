@@ -232,18 +232,24 @@ def test_the_planner_pauses_and_resumes_a_mission(open_page, demo, screenshot):
 
 
 def test_the_planner_maps_what_the_drones_measured(open_page, demo, screenshot):
+    """The collab experiment's mission (seed 5.4: 28 x 35 m at 7 m, 2 s sensor holds, an
+    OUT_MEASURE alarm after waypoint 15 that grows the area and calls the idle drones) flown over
+    the demo's CO2 plume: the readings layer shows the plume, every leg's readings on it."""
     from dronefleet.cli.drone import DEFAULT_HOME
     from dronefleet.demo import DEMO_PLUME
+    from dronefleet.experiments.scenarios import with_alarm
+    from dronefleet.ground.planner.coverage import AreaSpec, plan_area
 
     lat, lon = (float(v) for v in DEFAULT_HOME.split(",")[:2])  # the centre of the demo's homes
-    north, east = DEMO_PLUME.n, DEMO_PLUME.e
     m_lon = M_PER_DEG * math.cos(math.radians(lat))
-    corners = [(north + dn, east + de) for dn, de in ((-30, -30), (-30, 30), (30, 30), (30, -30))]
-    polygon = [[lat + n / M_PER_DEG, lon + e / m_lon] for n, e in corners]
-    area = {"polygon": polygon, "spacing_m": 15, "altitude_m": 15, "action": "read_sensors",
-            "hold_s": 1}  # fmt: skip
-    spec = {"name": "gas", "drones": ["QUAD_3"], "area": area,
-            "options": {"collaboration": False, "early_replacement": False}}  # fmt: skip
+    south, west = DEMO_PLUME.n - 17.5, DEMO_PLUME.e - 14.0  # the plume in the field's middle
+    corners = [(0, 0), (35, 0), (35, 28), (0, 28)]
+    polygon = [[lat + (south + n) / M_PER_DEG, lon + (west + e) / m_lon] for n, e in corners]
+    area = {"polygon": polygon, "spacing_m": 7, "altitude_m": 10, "angle_deg": 0,
+            "action": "read_sensors", "hold_s": 2, "grid": "seed"}  # fmt: skip
+    steps = with_alarm(plan_area(AreaSpec(**area)).mission_steps(), 15, "OUT_MEASURE")
+    spec = {"name": "collab", "drones": ["QUAD_3"], "steps": steps, "area": area,
+            "options": {"replacement": False, "collaboration": True}}  # fmt: skip
     page, console = open_page("planner")
     for _ in range(60):  # QUAD_3 may still be coming home from an earlier test
         status, answer = post_for(demo, "/missions?start=true", spec)
@@ -256,12 +262,13 @@ def test_the_planner_maps_what_the_drones_measured(open_page, demo, screenshot):
     page.wait_for_selector(f"#plan-watch option[value='{mission}']", state="attached")
     page.select_option("#plan-watch", mission)
     done = f"#mission-status[data-mission='{mission}'][data-state='completed']"
-    page.wait_for_selector(done, timeout=180_000)
-    reads = sum(
-        1 for s in get(demo, f"/missions/{mission}")["work"] if s["command"] == "read_sensors"
-    )
+    page.wait_for_selector(done, timeout=240_000)
+    record = get(demo, f"/missions/{mission}")
+    assert record["expansions"], "the OUT_MEASURE alarm grew no area"
+    read = get(demo, f"/missions/{mission}/readings")["features"]
+    assert len({f["properties"]["drone_id"] for f in read}) > 1, "no collaborator read a sensor"
     markers = page.locator("#planner-map .reading-marker")
-    expect(markers).to_have_count(reads)
+    expect(markers).to_have_count(len(read))
     key = page.inner_text("#readings-key")
     low, high = (float(v) for v in re.findall(r"(?:green|red) (\d+)", key))
     assert high > 1000 > low, key  # the plume stands out of the 400 ppm background
