@@ -292,10 +292,19 @@ class DroneController:
             if now - last < min_gap_s:
                 continue
             last = now
+            fields = {**sample, **self._goal_fields()}
             message = Telemetry(
-                drone_id=self.drone_id, vehicle_time_s=round(self.clock.now(), 3), fields=sample
+                drone_id=self.drone_id, vehicle_time_s=round(self.clock.now(), 3), fields=fields
             )
             await self.client.publish(topic_name, message, qos=QOS_STREAM, disposable=True)
+
+    def _goal_fields(self) -> dict[str, float]:
+        """Where the drone is flying to, while it has a goal (not landing): the ground's
+        separation monitor expects it to stop there (ground/courses.py)."""
+        nav = self.navigation
+        if nav.goal is None or nav.landing:
+            return {}
+        return {"goal_lat": nav.goal.lat, "goal_lon": nav.goal.lon, "goal_alt_m": nav.goal.alt_m}
 
     def _restart_telemetry(self) -> None:
         if self._telemetry_task is not None:

@@ -9,7 +9,9 @@ with every other drone in the air:
 
 - **CRITICAL**: closer than 5 m horizontally and 3 m vertically now (ground/planner/separation.py:
   the same minima as the plans);
-- **WARNING**: on their current velocities they will be within :data:`HORIZON_S` seconds.
+- **WARNING**: on their courses they will be within :data:`HORIZON_S` seconds: each at its
+  speed towards the goal its telemetry names, stopping there, or on at its velocity without one
+  (ground/courses.py).
 
 An alarm is raised once per encounter (a pair's encounter ends after :data:`CLEAR_S` seconds
 clear), as the shared :class:`~dronefleet.messaging.status.Alarm` on
@@ -34,6 +36,7 @@ from typing import Any
 from pydantic import BaseModel, Field
 
 from dronefleet.clock import monotonic
+from dronefleet.ground.courses import Course, breach_along, course_to
 from dronefleet.ground.planner.separation import HORIZONTAL_M, VERTICAL_M, WARNING_HORIZON_S
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError
@@ -91,39 +94,22 @@ class _Track:
     seen_s: float = 0.0  # monotonic() when heard
     vehicle_time_s: float = 0.0
     telemetry_s: float = -math.inf  # monotonic() of its last telemetry
+    goal: tuple[float, float, float] | None = None  # lat, lon, alt_m it is flying to
+
+    def course(self, east_m_per_deg: float) -> Course:
+        """What it is expected to fly next (ground/courses.py)."""
+        if self.goal is None:
+            return course_to((self.vn, self.ve, -self.vd), None)
+        lat, lon, alt_m = self.goal
+        to_goal = ((lat - self.lat) * _M_PER_DEG, (lon - self.lon) * east_m_per_deg,
+                   alt_m - self.alt_m)  # fmt: skip
+        return course_to((self.vn, self.ve, -self.vd), to_goal)
 
 
 @dataclass
 class _Encounter:
     level: AlarmLevel
     clear_since: float | None = None
-
-
-def breach_within(
-    rel: tuple[float, float, float], vel: tuple[float, float, float], horizon_s: float
-) -> float | None:
-    """The first time in [0, horizon_s] at which a relative position ``rel`` (n, e, up) moving at
-    ``vel`` is inside the separation cylinder, or None."""
-    n, e, u = rel
-    vn, ve, vu = vel
-    lo, hi = 0.0, horizon_s
-    a, b, c = vn * vn + ve * ve, 2 * (n * vn + e * ve), n * n + e * e - HORIZONTAL_M**2
-    if a < 1e-12:
-        if c >= 0:
-            return None
-    else:
-        disc = b * b - 4 * a * c
-        if disc <= 0:
-            return None
-        root = math.sqrt(disc)
-        lo, hi = max(lo, (-b - root) / (2 * a)), min(hi, (-b + root) / (2 * a))
-    if abs(vu) < 1e-12:
-        if abs(u) >= VERTICAL_M:
-            return None
-    else:
-        t1, t2 = (-VERTICAL_M - u) / vu, (VERTICAL_M - u) / vu
-        lo, hi = max(lo, min(t1, t2)), min(hi, max(t1, t2))
-    return lo if lo < hi else None
 
 
 class SeparationMonitor:
@@ -168,6 +154,8 @@ class SeparationMonitor:
         now = monotonic()
         track = _Track(f["lat"], f["lon"], f["alt_m"], f.get("vn", 0.0), f.get("ve", 0.0))
         track.vd, track.in_air = f.get("vd", 0.0), bool(f.get("in_air", 0.0))
+        if {"goal_lat", "goal_lon", "goal_alt_m"} <= f.keys():
+            track.goal = (f["goal_lat"], f["goal_lon"], f["goal_alt_m"])
         track.seen_s = track.telemetry_s = now
         track.vehicle_time_s = msg.vehicle_time_s
         self.tracks[msg.drone_id] = track
@@ -191,17 +179,24 @@ class SeparationMonitor:
         await self._compare(hb.drone_id, now)
 
     # -- comparison ----------------------------------------------------------------------------
-    def _relative(
-        self, a: _Track, b: _Track, now: float
-    ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        """Where ``b`` is from ``a`` (n, e, up metres) and how fast that changes, now."""
+    def _relative(self, a: _Track, b: _Track, now: float) -> tuple[float, float, float]:
+        """Where ``b`` is from ``a`` (n, e, up metres), now."""
         east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
-        da = min(max(now - a.seen_s, 0.0), MAX_EXTRAPOLATION_S)
-        db = min(max(now - b.seen_s, 0.0), MAX_EXTRAPOLATION_S)
+        da, db = _age(a, now), _age(b, now)
         n = (b.lat - a.lat) * _M_PER_DEG + b.vn * db - a.vn * da
         e = (b.lon - a.lon) * east_m_per_deg + b.ve * db - a.ve * da
         u = (b.alt_m - b.vd * db) - (a.alt_m - a.vd * da)
-        return (n, e, u), (b.vn - a.vn, b.ve - a.ve, a.vd - b.vd)
+        return n, e, u
+
+    def _foreseen(
+        self, a: _Track, b: _Track, rel: tuple[float, float, float], now: float
+    ) -> float | None:
+        """When, on their courses (ground/courses.py), ``a`` and ``b`` would be within the
+        minima; None: not within the horizon."""
+        east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
+        a_course = a.course(east_m_per_deg).later(_age(a, now))
+        b_course = b.course(east_m_per_deg).later(_age(b, now))
+        return breach_along(rel, a_course, b_course, self.horizon_s)
 
     async def _compare(self, drone_id: str, now: float) -> None:
         me = self.tracks[drone_id]
@@ -212,13 +207,13 @@ class SeparationMonitor:
             if not (me.in_air and other.in_air) or now - other.seen_s > STALE_S:
                 await self._clear(pair, now)
                 continue
-            rel, vel = self._relative(me, other, now)
+            rel = self._relative(me, other, now)
             self._measure(rel)
             flat = math.hypot(rel[0], rel[1])
             if flat < HORIZONTAL_M and abs(rel[2]) < VERTICAL_M:
                 await self._raise(pair, AlarmLevel.CRITICAL, me, other, rel, 0.0)
                 continue
-            ahead = breach_within(rel, vel, self.horizon_s)
+            ahead = self._foreseen(me, other, rel, now)
             if ahead is not None:
                 await self._raise(pair, AlarmLevel.WARNING, me, other, rel, ahead)
             else:
@@ -304,3 +299,8 @@ class SeparationMonitor:
             await self.client.publish(SEPARATION_ALARMS, alarm, qos=1)
         except Exception as exc:  # the counts stand; the stream misses this one
             log.warning("separation alarm not published: %s", exc)
+
+
+def _age(track: _Track, now: float) -> float:
+    """How far its last position is moved on by its velocity (bounded: see MAX_EXTRAPOLATION_S)."""
+    return min(max(now - track.seen_s, 0.0), MAX_EXTRAPOLATION_S)

@@ -30,6 +30,10 @@ FLIGHT_FIELDS: dict[str, tuple[float, float]] = {
     "current_a": (-100.0, 1_000.0),
     "armed": (0.0, 1.0),
     "in_air": (0.0, 1.0),
+    # Where the drone is flying to, while it has a goal (drone/controller.py).
+    "goal_lat": (-90.0, 90.0),
+    "goal_lon": (-180.0, 180.0),
+    "goal_alt_m": (-500.0, 20_000.0),
 }
 #: Sensor units and the values a reading in them can take.
 SENSOR_UNITS: dict[str, tuple[float, float]] = {

@@ -12,7 +12,8 @@ import pytest
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground import separation_monitor as sm
-from dronefleet.ground.separation_monitor import CLEAR_S, SeparationMonitor, breach_within
+from dronefleet.ground.courses import Course, breach_along, breach_within, course_to
+from dronefleet.ground.separation_monitor import CLEAR_S, SeparationMonitor
 from dronefleet.messaging.status import Alarm
 
 ORIGIN = LLA(40.63, -8.659, 10.0)
@@ -30,6 +31,31 @@ def test_parallel_tracks_8_m_apart_and_a_crossing_4_m_higher_are_not_breaches() 
     assert breach_within((20.0, 0.0, 4.0), (-10.0, 0.0, 0.0), 5.0) is None
     # ... but one descending onto the other's height while closing is.
     assert breach_within((20.0, 0.0, 4.0), (-10.0, 0.0, -1.0), 5.0) == pytest.approx(1.5)
+
+
+def test_drones_that_stop_at_their_goals_short_of_each_other_are_not_foreseen_meeting() -> None:
+    # Head on, 25 m apart at 5 m/s each: on velocities alone inside 5 m after 2 s ...
+    north, south = (5.0, 0.0, 0.0), (-5.0, 0.0, 0.0)
+    on = breach_along((25.0, 0.0, 0.0), Course(north), Course(south), 3.0)
+    assert on == pytest.approx(2.0)
+    # ... but each stops at its waypoint after 1 s (15 m apart, then still): no breach.
+    assert breach_along((25.0, 0.0, 0.0), Course(north, 1.0), Course(south, 1.0), 3.0) is None
+    # Only one stops: the other flies on into it, 15 m later at 5 m/s -> 1 + 2 s.
+    one = breach_along((25.0, 0.0, 0.0), Course(north, 1.0), Course(south), 3.5)
+    assert one == pytest.approx(3.0)
+
+
+def test_a_course_heads_for_the_goal_at_the_drones_speed_and_stops_there() -> None:
+    # Flying east at 4 m/s, turning for a goal 8 m north and 3 m up while climbing at 1 m/s.
+    course = course_to((0.0, 4.0, 1.0), (8.0, 0.0, 3.0))
+    assert course.vel == pytest.approx((4.0, 0.0, 1.0))
+    assert (course.flat_s, course.climb_s) == pytest.approx((2.0, 3.0))
+    assert course.velocity_at(2.5) == pytest.approx((0.0, 0.0, 1.0))
+    assert course.later(1.0).flat_s == pytest.approx(1.0)
+    # Climbing away from the goal's height: the climb is not expected to stop.
+    assert course_to((0.0, 4.0, 1.0), (8.0, 0.0, -3.0)).climb_s == math.inf
+    # Hovering: it stays (a goal far away does not make it set off in the forecast).
+    assert course_to((0.0, 0.0, 0.0), (100.0, 0.0, 0.0)).velocity_at(0.0) == (0.0, 0.0, 0.0)
 
 
 class _Clock:
@@ -109,3 +135,30 @@ async def test_a_drone_not_heard_for_a_while_is_not_compared(monitor) -> None:
     clock.now += sm.STALE_S + 1
     await feed(mon, "B", 0, 1, 10)
     assert sent == [] and mon.status().pairs_compared == 0
+
+
+async def test_a_drone_stopping_at_its_waypoint_short_of_another_raises_nothing(monitor) -> None:
+    mon, sent, _ = monitor
+    # A flies east at 10 m/s towards B, hovering 25 m ahead; A's waypoint is 10 m on.
+    await feed(mon, "B", 0, 25, 10)
+    await feed(mon, "A", 0, 0, 10, ve=10.0, **goal(0, 10, 10))
+    assert sent == []
+    # A goal past B: it is foreseen, as it is without a goal.
+    await feed(mon, "A", 0, 0, 10, ve=10.0, **goal(0, 40, 10))
+    assert [a.level.value for a in sent] == ["WARNING"]
+
+
+async def test_a_drone_turning_for_its_next_waypoint_is_foreseen_going_there(monitor) -> None:
+    mon, sent, _ = monitor
+    # A still flies north at 5 m/s, but its goal is now 15 m east, where B hovers: ahead on
+    # its velocity there is nothing; on its course, B (within 5 m after 2 s).
+    await feed(mon, "B", 0, 15, 10)
+    await feed(mon, "A", 0, 0, 10, vn=5.0)
+    assert sent == []
+    await feed(mon, "A", 0, 0, 10, vn=5.0, **goal(0, 15, 10))
+    assert [a.level.value for a in sent] == ["WARNING"]
+
+
+def goal(n: float, e: float, up: float) -> dict[str, float]:
+    p = ned_to_lla(NED(n, e, -up), ORIGIN)
+    return {"goal_lat": p.lat, "goal_lon": p.lon, "goal_alt_m": p.alt_m}
