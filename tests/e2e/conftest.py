@@ -11,7 +11,6 @@ import json
 import math
 import os
 import re
-import socket
 import subprocess
 import sys
 import threading
@@ -93,10 +92,10 @@ def stop_process(process: subprocess.Popen) -> None:
 
 
 def free_port() -> int:
-    """A loopback TCP port nobody listens on right now."""
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
+    """A loopback TCP port nobody listens on right now (messaging/embedded.py says how)."""
+    from dronefleet.messaging.embedded import free_port as drawn
+
+    return drawn()
 
 
 def start_demo(

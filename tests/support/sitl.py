@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import gzip
+import random
 import shutil
 import socket
 import subprocess
@@ -54,11 +55,14 @@ def _instance_free(instance: int) -> bool:
     return True
 
 
-def _free_instance(start: int = 3) -> int:
+def _free_instance() -> int:
+    # From a random instance on: two test processes (pytest-xdist) starting SITL at once would
+    # otherwise both find the same first free one.
+    start = random.Random().randrange(3, 40)
     for instance in range(start, start + 60):
         if _instance_free(instance):
             return instance
-    raise RuntimeError("no free SITL instance number (ports 5790-6390 in use)")
+    raise RuntimeError(f"no free SITL instance number from {start} on (TCP 5760 + 10·N in use)")
 
 
 @dataclass

@@ -155,9 +155,9 @@ class ProtocolFleet(SimFleet):
 
 
 def free_udp_port() -> int:
-    """A loopback UDP port nobody is bound to right now."""
+    """A loopback UDP port nobody is bound to right now (drawn as messaging/embedded.py says)."""
     import socket
 
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    from dronefleet.messaging.embedded import free_port
+
+    return free_port(kind=socket.SOCK_DGRAM)

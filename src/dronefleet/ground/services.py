@@ -36,7 +36,6 @@ from dronefleet.ground.separation_monitor import SeparationMonitor
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.telemetry.connector import TelemetryConnector
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
-from dronefleet.messaging.embedded import free_port
 from dronefleet.messaging.url import BrokerUrl
 
 log = logging.getLogger(__name__)
@@ -79,7 +78,9 @@ class GroundServices:
         self.store_url = store_url
         self.state_path = str(state_path)
         self.http_host = http_host
-        self.http_port = http_port or free_port(http_host)
+        # 0: a free port, chosen by the system when the socket is bound (never found free first
+        # and bound later, which another process could take in between); kept for restarts.
+        self.http_port = http_port
         self.command_timeout_s = command_timeout_s
         self.serve_http = serve_http
         self.planner_client_id = planner_client_id
@@ -211,6 +212,16 @@ class GroundServices:
             self.admin_token = await tokens.issue("admin", Role.ADMIN)
 
     async def _serve(self) -> None:
+        # The socket is bound here, not by uvicorn, which logs a port in use and calls sys.exit:
+        # ours raises OSError ("Address already in use"), which the CLI reports in one line.
+        sock = socket.socket(socket.AF_INET6 if ":" in self.http_host else socket.AF_INET)
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind((self.http_host, self.http_port))
+        except OSError:
+            sock.close()
+            raise
+        self.http_port = sock.getsockname()[1]
         config = uvicorn.Config(
             self.app,
             host=self.http_host,
@@ -221,15 +232,6 @@ class GroundServices:
             timeout_graceful_shutdown=2,
             timeout_keep_alive=2,
         )
-        # The socket is bound here, not by uvicorn, which logs a port in use and calls sys.exit:
-        # ours raises OSError ("Address already in use"), which the CLI reports in one line.
-        sock = socket.socket(socket.AF_INET6 if ":" in self.http_host else socket.AF_INET)
-        try:
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            sock.bind((self.http_host, self.http_port))
-        except OSError:
-            sock.close()
-            raise
         self._server = uvicorn.Server(config)
         self._serve_task = asyncio.create_task(
             self._server.serve(sockets=[sock]), name="ground:http"

@@ -42,7 +42,8 @@ async def test_readings_over_a_plume_are_kept_and_exported(embedded_broker, tmp_
         config = DroneConfig(drone_id="GAS", sensor_bounds=quiet)
         await fleet.add_drone(config, embedded_broker, home=HOME)
         headers = {"Authorization": f"Bearer {ground.operator_token}"}
-        async with httpx.AsyncClient(base_url=ground.http_url, headers=headers) as api:
+        # 30 s: the first plan starts the planning worker process, slow on a loaded machine.
+        async with httpx.AsyncClient(base_url=ground.http_url, headers=headers, timeout=30) as api:
             for _ in range(100):
                 if (await api.get("/api/v1/drones/GAS")).status_code == 200:
                     break

@@ -76,7 +76,8 @@ async def test_a_surveys_pictures_are_kept_on_the_ground_and_served_geotagged(
         config = DroneConfig(drone_id="CAM", log_dir=tmp_path / "drone-logs")
         await fleet.add_drone(config, embedded_broker, home=HOME)
         headers = {"Authorization": f"Bearer {ground.operator_token}"}
-        async with httpx.AsyncClient(base_url=ground.http_url, headers=headers) as api:
+        # 30 s: the first plan starts the planning worker process, slow on a loaded machine.
+        async with httpx.AsyncClient(base_url=ground.http_url, headers=headers, timeout=30) as api:
             await until(lambda: _ok(api.get("/api/v1/drones/CAM")), 10)
             area = {"polygon": rectangle(10, 0, 20, 20), "spacing_m": 10, "altitude_m": 15,
                     "action": "takepic", "hold_s": 0}  # fmt: skip
