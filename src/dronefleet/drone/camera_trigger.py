@@ -32,6 +32,7 @@ class CameraTrigger:
         self.poll_s = poll_s
         self.distance_m = 0.0
         self.pictures: list[dict[str, Any]] = []
+        self._told = 0  # how many of them a step report has listed (:meth:`untold`)
         self._task: asyncio.Task[None] | None = None
         self._travelled = 0.0
         self._last: Any = None
@@ -47,7 +48,23 @@ class CameraTrigger:
             self._task = asyncio.create_task(self._run(distance_m), name="camera-trigger")
             # The first picture is taken where the trigger is set, as autopilots do.
             await self._shoot()
-        return {"trigger_distance_m": distance_m, "pictures": len(self.pictures)}
+        return {
+            "trigger_distance_m": distance_m,
+            "pictures": len(self.pictures),
+            "captures": self.untold(),
+        }
+
+    def untold(self) -> list[dict[str, Any]]:
+        """The capture records of the pictures taken since the last call: each step report
+        lists the ones before it, so the ground's photo gallery gets every one (issue 14)."""
+        new = [c for c in self.pictures[self._told :] if c]
+        self._told = len(self.pictures)
+        return new
+
+    def reset(self) -> None:
+        """A new mission: no pictures yet."""
+        self.pictures = []
+        self._told = 0
 
     async def stop(self) -> None:
         if self._task is not None:

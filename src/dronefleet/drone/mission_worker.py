@@ -281,7 +281,7 @@ class MissionWorker:
     ) -> None:
         mission_started = self.clock.now()
         trigger = self.controller.camera_trigger
-        trigger.pictures = []
+        trigger.reset()
         self.sensors.forget()
         steps = list(self.queue)
         if not await self._fence_on_board(mission_id, count, steps):

@@ -229,3 +229,56 @@ async def test_a_picture_larger_than_a_broker_message_comes_in_chunks(embedded_b
         await ground.stop()
         await gear.stop()
         await gear_client.stop()
+
+
+async def test_a_fly_through_surveys_triggered_pictures_all_reach_the_gallery(
+    embedded_broker, tmp_path
+):
+    """Photographed on the move (the distance trigger, as DO_SET_CAM_TRIGG_DIST): no takepic
+    steps, yet every picture the trigger took is listed, fetched and geotagged."""
+    ground = GroundServices(
+        embedded_broker,
+        store_url=f"sqlite:///{tmp_path}/t.db",
+        state_path=tmp_path / "g.db",
+        http_port=0,
+        planner_client_id="trigger-photo-planner",
+    )
+    async with ground, SimFleet(speedup=20) as fleet:
+        config = DroneConfig(drone_id="FLY", log_dir=tmp_path / "drone-logs")
+        await fleet.add_drone(config, embedded_broker, home=HOME)
+        headers = {"Authorization": f"Bearer {ground.operator_token}"}
+        async with httpx.AsyncClient(base_url=ground.http_url, headers=headers, timeout=30) as api:
+            await until(lambda: _ok(api.get("/api/v1/drones/FLY")), 10)
+            area = {"polygon": rectangle(10, 0, 20, 30), "spacing_m": 10, "altitude_m": 15,
+                    "action": "takepic", "fly_through": True, "trigger_distance_m": 6}  # fmt: skip
+            spec = {"drones": ["FLY"], "area": area, "options": {"collaboration": False}}
+            created = await api.post("/api/v1/missions", params={"start": "true"}, json=spec)
+            assert created.status_code == 201, created.text
+            mission_id = created.json()["mission_id"]
+
+            async def ended():
+                got = (await api.get(f"/api/v1/missions/{mission_id}")).json()
+                return got if got["state"] in ("completed", "failed", "stopped") else None
+
+            detail = await until(ended, 120)
+            assert detail["state"] == "completed", detail["error"]
+            on_drone = sorted((tmp_path / "drone-logs" / "pictures").glob("*.jpg"))
+
+            async def all_kept():
+                got = (await api.get(f"/api/v1/missions/{mission_id}/photos")).json()
+                return got if len(got) == len(on_drone) and all(p["stored"] for p in got) else None
+
+            photos = await until(all_kept, 30)
+            last = await api.get(f"/api/v1/missions/{mission_id}/photos/{len(photos)}")
+
+    assert not any(s["command"] == "takepic" for s in detail["work"])
+    assert len(on_drone) >= 6  # several per swath, taken on the move
+    assert sorted(p["file"] for p in photos) == [f.name for f in on_drone]
+    assert len({(round(p["lat"], 6), round(p["lon"], 6)) for p in photos}) == len(photos)
+    # At the survey's 15 m, within the vertical tolerance of the wait before the trigger is set.
+    heights = [p["relative_alt_m"] for p in photos]
+    assert all(13.0 < h < 16.0 for h in heights), heights
+    assert (
+        last.status_code == 200
+        and last.content == (tmp_path / "drone-logs" / "pictures" / photos[-1]["file"]).read_bytes()
+    )

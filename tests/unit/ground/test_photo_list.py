@@ -46,3 +46,23 @@ async def test_a_camera_that_keeps_no_file_is_listed_with_the_reason(tmp_path):
     [entry] = await PhotoStore(tmp_path).register("M1", captures(record(leg)))
     assert entry.file is None and entry.given_up and entry.error == NO_FILE
     assert (entry.lat, entry.alt_m, entry.vehicle_time_s) == (40.1, 25.0, 11.0)
+
+
+async def test_every_picture_of_a_distance_trigger_report_is_listed_once(tmp_path):
+    taken = [
+        {"lat": 40.1 + i / 1000, "lon": -8.66, "alt_m": 25.0, "file": f"T_{i}.jpg"}
+        for i in range(3)
+    ]
+    report = StepReport(
+        index=7, drone_step=9, command="camera_trigger", measured={"captures": taken}
+    )
+    leg = Leg(leg_id="M1.1", drone_id="QUAD_1", reports=[report])
+    store = PhotoStore(tmp_path)
+    await store.register("M1", captures(record(leg)))
+    await store.register("M1", captures(record(leg)))  # reported again: nothing new
+    listed = await store.entries("M1")
+    assert [(p.n, p.step, p.shot, p.file) for p in listed] == [
+        (1, 7, 0, "T_0.jpg"),
+        (2, 7, 1, "T_1.jpg"),
+        (3, 7, 2, "T_2.jpg"),
+    ]

@@ -47,22 +47,33 @@ def captures(record: MissionRecord) -> list[PhotoEntry]:
     found = []
     for leg in record.legs:
         for report in leg.reports:
-            capture = (report.measured or {}).get("capture")
-            if not isinstance(capture, dict):
-                continue
-            try:
-                found.append(
-                    _entry(leg.leg_id, leg.drone_id, report.drone_step, report.index, capture)
-                )
-            except (ValidationError, KeyError, TypeError):
-                log.warning(
-                    "mission %s: a capture without a position: %s", record.mission_id, capture
-                )
+            for shot, capture in enumerate(_shots(report.measured or {})):
+                try:
+                    found.append(
+                        _entry(leg.leg_id, leg.drone_id, report.drone_step, report.index,
+                               capture, shot)
+                    )  # fmt: skip
+                except (ValidationError, KeyError, TypeError):
+                    log.warning(
+                        "mission %s: a capture without a position: %s", record.mission_id, capture
+                    )
     return found
 
 
+def _shots(measured: dict[str, Any]) -> list[dict[str, Any]]:
+    """A report's pictures: a takepic's capture, or the distance trigger's (ground/planner/
+    measurements.py keeps only dicts)."""
+    capture = measured.get("capture")
+    return [capture] if isinstance(capture, dict) else list(measured.get("captures") or [])
+
+
 def _entry(
-    leg_id: str, drone_id: str, drone_step: int, step: int | None, c: dict[str, Any]
+    leg_id: str,
+    drone_id: str,
+    drone_step: int,
+    step: int | None,
+    c: dict[str, Any],
+    shot: int = 0,
 ) -> PhotoEntry:
     file = c.get("file")
     name = file.replace("\\", "/").rsplit("/", 1)[-1] if isinstance(file, str) else ""
@@ -72,6 +83,7 @@ def _entry(
         drone_id=drone_id,
         leg_id=leg_id,
         drone_step=drone_step,
+        shot=shot,
         step=step,
         lat=c["lat"],
         lon=c["lon"],
@@ -121,7 +133,10 @@ class PhotoCollector:
         await self.client.stop()
 
     def _on_event(self, event: str, data: dict[str, Any]) -> None:
-        if event == "progress" and isinstance((data.get("result") or {}).get("capture"), dict):
+        result = data.get("result") or {}
+        if event == "progress" and (
+            isinstance(result.get("capture"), dict) or isinstance(result.get("captures"), list)
+        ):
             self._waiting.add(str(data.get("mission_id")))
             self._wake.set()
 

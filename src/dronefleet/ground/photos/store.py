@@ -30,6 +30,9 @@ class PhotoEntry(BaseModel):
     drone_id: str
     leg_id: str
     drone_step: int = Field(description="the step in the drone's own list")
+    shot: int = Field(
+        default=0, description="which of the pictures its step reported (distance trigger)"
+    )
     step: int | None = Field(description="the mission's step (None: not a work step)")
     lat: float
     lon: float
@@ -44,8 +47,8 @@ class PhotoEntry(BaseModel):
     given_up: bool = Field(default=False, description="the ground no longer asks the drone")
 
     @property
-    def key(self) -> tuple[str, int]:
-        return self.leg_id, self.drone_step
+    def key(self) -> tuple[str, int, int]:
+        return self.leg_id, self.drone_step, self.shot
 
     @property
     def name(self) -> str:

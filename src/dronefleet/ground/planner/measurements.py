@@ -24,11 +24,21 @@ COLUMNS = (
 )  # fmt: skip
 
 
+#: At most this many distance-triggered pictures are kept from one report.
+MAX_CAPTURES = 10_000
+
+
 def measured(result: dict[str, Any] | None) -> dict[str, Any] | None:
-    """What of a step's result is a measurement: its readings and its picture, else None."""
+    """What of a step's result is a measurement: its readings, its picture (takepic) and the
+    pictures the distance trigger took since the last report (``captures``), else None."""
     if not result:
         return None
     kept = {k: result[k] for k in ("readings", "capture") if isinstance(result.get(k), dict)}
+    shots = result.get("captures")
+    if isinstance(shots, list):
+        shots = [c for c in shots[:MAX_CAPTURES] if isinstance(c, dict)]
+        if shots:
+            kept["captures"] = shots
     return kept or None
 
 
