@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from pydantic import BaseModel, Field
@@ -94,16 +94,19 @@ class _Track:
     seen_s: float = 0.0  # monotonic() when heard
     vehicle_time_s: float = 0.0
     telemetry_s: float = -math.inf  # monotonic() of its last telemetry
-    goal: tuple[float, float, float] | None = None  # lat, lon, alt_m it is flying to
+    course: Course = field(default_factory=lambda: Course((0.0, 0.0, 0.0)))  # what it flies next
 
-    def course(self, east_m_per_deg: float) -> Course:
-        """What it is expected to fly next (ground/courses.py)."""
-        if self.goal is None:
-            return course_to((self.vn, self.ve, -self.vd), None)
-        lat, lon, alt_m = self.goal
-        to_goal = ((lat - self.lat) * _M_PER_DEG, (lon - self.lon) * east_m_per_deg,
-                   alt_m - self.alt_m)  # fmt: skip
-        return course_to((self.vn, self.ve, -self.vd), to_goal)
+
+def _course(f: dict[str, float]) -> Course:
+    """What a drone whose telemetry fields are ``f`` is expected to fly next: on to the goal
+    they name, if any (ground/courses.py). Worked out once per message, not once per pair."""
+    vel = (f.get("vn", 0.0), f.get("ve", 0.0), -f.get("vd", 0.0))
+    if not {"goal_lat", "goal_lon", "goal_alt_m"} <= f.keys():
+        return course_to(vel, None)
+    east_m_per_deg = _M_PER_DEG * math.cos(math.radians(f["lat"]))
+    to_goal = ((f["goal_lat"] - f["lat"]) * _M_PER_DEG, (f["goal_lon"] - f["lon"]) * east_m_per_deg,
+               f["goal_alt_m"] - f["alt_m"])  # fmt: skip
+    return course_to(vel, to_goal)
 
 
 @dataclass
@@ -154,8 +157,7 @@ class SeparationMonitor:
         now = monotonic()
         track = _Track(f["lat"], f["lon"], f["alt_m"], f.get("vn", 0.0), f.get("ve", 0.0))
         track.vd, track.in_air = f.get("vd", 0.0), bool(f.get("in_air", 0.0))
-        if {"goal_lat", "goal_lon", "goal_alt_m"} <= f.keys():
-            track.goal = (f["goal_lat"], f["goal_lon"], f["goal_alt_m"])
+        track.course = _course(f)
         track.seen_s = track.telemetry_s = now
         track.vehicle_time_s = msg.vehicle_time_s
         self.tracks[msg.drone_id] = track
@@ -193,9 +195,7 @@ class SeparationMonitor:
     ) -> float | None:
         """When, on their courses (ground/courses.py), ``a`` and ``b`` would be within the
         minima; None: not within the horizon."""
-        east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
-        a_course = a.course(east_m_per_deg).later(_age(a, now))
-        b_course = b.course(east_m_per_deg).later(_age(b, now))
+        a_course, b_course = a.course.later(_age(a, now)), b.course.later(_age(b, now))
         return breach_along(rel, a_course, b_course, self.horizon_s)
 
     async def _compare(self, drone_id: str, now: float) -> None:

@@ -20,9 +20,9 @@ from dronefleet.drone.config import DroneConfig
 from dronefleet.experiments.scenarios import rectangle
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
-from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.simfleet import SimFleet
+from support.ground_api import local_ground
 
 pytestmark = pytest.mark.integration
 HOME = LLA(40.63, -8.659, 10.0)
@@ -51,13 +51,7 @@ async def test_forged_alarms_and_phantom_drones_are_dropped_counted_and_never_ac
         await fleet.add_drone(DroneConfig(drone_id="FULL"), embedded_broker, home=HOME)
         spare_home = ned_to_lla(NED(0, 20), HOME)
         await fleet.add_drone(DroneConfig(drone_id="SPARE"), embedded_broker, home=spare_home)
-        ground = GroundServices(
-            embedded_broker,
-            store_url=f"sqlite:///{tmp_path}/t.db",
-            state_path=tmp_path / "g.db",
-            http_port=0,
-            planner_client_id="forged-test-planner",
-        )
+        ground = local_ground(embedded_broker, tmp_path, "forged-test-planner")
         async with ground:
             auth = {"Authorization": f"Bearer {ground.operator_token}"}
             async with (

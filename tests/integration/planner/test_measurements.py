@@ -19,8 +19,8 @@ from dronefleet.experiments.scenarios import rectangle
 from dronefleet.geo.ned import lla_to_ned, ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.planner.measurements import COLUMNS
-from dronefleet.ground.services import GroundServices
 from dronefleet.simfleet import SimFleet
+from support.ground_api import flown, local_ground
 
 pytestmark = pytest.mark.integration
 HOME = LLA(40.63, -8.659, 10.0)
@@ -28,13 +28,7 @@ PLUME = ned_to_lla(NED(30, 15), HOME)
 
 
 async def test_readings_over_a_plume_are_kept_and_exported(embedded_broker, tmp_path):
-    ground = GroundServices(
-        embedded_broker,
-        store_url=f"sqlite:///{tmp_path}/t.db",
-        state_path=tmp_path / "g.db",
-        http_port=0,
-        planner_client_id="measure-planner",
-    )
+    ground = local_ground(embedded_broker, tmp_path, "measure-planner")
     plume = (PLUME.lat, PLUME.lon, 20000.0, 15.0)  # centred at sea level: 25 m below
     async with ground, SimFleet(speedup=20, plumes=[plume]) as fleet:
         # No OUT_MEASURE alarm here: the plume is mapped, not chased.
@@ -51,15 +45,9 @@ async def test_readings_over_a_plume_are_kept_and_exported(embedded_broker, tmp_
             area = {"polygon": rectangle(10, 0, 40, 30), "spacing_m": 10, "altitude_m": 15,
                     "action": "read_sensors", "hold_s": 1}  # fmt: skip
             spec = {"drones": ["GAS"], "area": area, "options": {"collaboration": False}}
-            created = await api.post("/api/v1/missions", params={"start": "true"}, json=spec)
-            assert created.status_code == 201, created.text
-            mission_id = created.json()["mission_id"]
-            for _ in range(600):
-                detail = (await api.get(f"/api/v1/missions/{mission_id}")).json()
-                if detail["state"] in ("completed", "failed", "stopped"):
-                    break
-                await asyncio.sleep(0.1)
+            detail = await flown(api, spec, timeout_s=60)
             assert detail["state"] == "completed", detail["error"]
+            mission_id = detail["mission_id"]
             geo = await api.get(f"/api/v1/missions/{mission_id}/readings")
             table = await api.get(f"/api/v1/missions/{mission_id}/readings?format=csv")
             log = (await api.get(f"/api/v1/missions/{mission_id}/log")).json()

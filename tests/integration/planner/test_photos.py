@@ -28,12 +28,12 @@ from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.photos.collector import PhotoCollector, PictureRefused
 from dronefleet.ground.photos.images import NotAPicture
 from dronefleet.ground.photos.store import PhotoEntry, PhotoStore
-from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.gear import PHOTO_CHUNK_BYTES, GearQuery, GearRequest
 from dronefleet.messaging.rpc import Requester
 from dronefleet.messaging.topics import Channel, Direction, any_drone, topic
 from dronefleet.simfleet import SimFleet
+from support.ground_api import flown, local_ground
 
 pytestmark = pytest.mark.integration
 HOME = LLA(40.63, -8.659, 10.0)
@@ -65,13 +65,7 @@ async def until(predicate, timeout_s: float, poll_s: float = 0.1):
 async def test_a_surveys_pictures_are_kept_on_the_ground_and_served_geotagged(
     embedded_broker, tmp_path
 ):
-    ground = GroundServices(
-        embedded_broker,
-        store_url=f"sqlite:///{tmp_path}/t.db",
-        state_path=tmp_path / "g.db",
-        http_port=0,
-        planner_client_id="photo-planner",
-    )
+    ground = local_ground(embedded_broker, tmp_path, "photo-planner")
     async with ground, SimFleet(speedup=20) as fleet:
         config = DroneConfig(drone_id="CAM", log_dir=tmp_path / "drone-logs")
         await fleet.add_drone(config, embedded_broker, home=HOME)
@@ -82,16 +76,9 @@ async def test_a_surveys_pictures_are_kept_on_the_ground_and_served_geotagged(
             area = {"polygon": rectangle(10, 0, 20, 20), "spacing_m": 10, "altitude_m": 15,
                     "action": "takepic", "hold_s": 0}  # fmt: skip
             spec = {"drones": ["CAM"], "area": area, "options": {"collaboration": False}}
-            created = await api.post("/api/v1/missions", params={"start": "true"}, json=spec)
-            assert created.status_code == 201, created.text
-            mission_id = created.json()["mission_id"]
-
-            async def ended():
-                got = (await api.get(f"/api/v1/missions/{mission_id}")).json()
-                return got if got["state"] in ("completed", "failed", "stopped") else None
-
-            detail = await until(ended, 120)
+            detail = await flown(api, spec)
             assert detail["state"] == "completed", detail["error"]
+            mission_id = detail["mission_id"]
             shots = sum(1 for step in detail["work"] if step["command"] == "takepic")
 
             async def all_kept():
@@ -236,13 +223,7 @@ async def test_a_fly_through_surveys_triggered_pictures_all_reach_the_gallery(
 ):
     """Photographed on the move (the distance trigger, as DO_SET_CAM_TRIGG_DIST): no takepic
     steps, yet every picture the trigger took is listed, fetched and geotagged."""
-    ground = GroundServices(
-        embedded_broker,
-        store_url=f"sqlite:///{tmp_path}/t.db",
-        state_path=tmp_path / "g.db",
-        http_port=0,
-        planner_client_id="trigger-photo-planner",
-    )
+    ground = local_ground(embedded_broker, tmp_path, "trigger-photo-planner")
     async with ground, SimFleet(speedup=20) as fleet:
         config = DroneConfig(drone_id="FLY", log_dir=tmp_path / "drone-logs")
         await fleet.add_drone(config, embedded_broker, home=HOME)
@@ -252,16 +233,9 @@ async def test_a_fly_through_surveys_triggered_pictures_all_reach_the_gallery(
             area = {"polygon": rectangle(10, 0, 20, 30), "spacing_m": 10, "altitude_m": 15,
                     "action": "takepic", "fly_through": True, "trigger_distance_m": 6}  # fmt: skip
             spec = {"drones": ["FLY"], "area": area, "options": {"collaboration": False}}
-            created = await api.post("/api/v1/missions", params={"start": "true"}, json=spec)
-            assert created.status_code == 201, created.text
-            mission_id = created.json()["mission_id"]
-
-            async def ended():
-                got = (await api.get(f"/api/v1/missions/{mission_id}")).json()
-                return got if got["state"] in ("completed", "failed", "stopped") else None
-
-            detail = await until(ended, 120)
+            detail = await flown(api, spec)
             assert detail["state"] == "completed", detail["error"]
+            mission_id = detail["mission_id"]
             on_drone = sorted((tmp_path / "drone-logs" / "pictures").glob("*.jpg"))
 
             async def all_kept():

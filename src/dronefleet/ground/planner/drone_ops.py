@@ -12,9 +12,7 @@ drone flying, it is aborted whole (as ``POST /missions/{id}/abort``).
 from __future__ import annotations
 
 from dronefleet.errors import Conflict
-from dronefleet.ground.planner.ends import GO_HOME
-from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
-from dronefleet.ground.planner.options import LegRole
+from dronefleet.ground.planner.models import Leg, MissionRecord, MissionState
 from dronefleet.ground.planner.service import MissionPlanner
 from dronefleet.messaging.missions import MissionAction
 
@@ -57,7 +55,7 @@ async def abort_drone(planner: MissionPlanner, drone_id: str) -> MissionRecord:
             lg for lg in record.active_legs() if lg.drone_id != drone_id and not lg.role.outgoing
         ]
         if others:
-            await _send_home(planner, record, leg)
+            await planner.send_home(record, leg)
             record.error = f"{drone_id} aborted by the operator: its steps left are not flown"
             if record.state is MissionState.PAUSED and not any(lg.paused for lg in others):
                 record.state = (
@@ -68,15 +66,3 @@ async def abort_drone(planner: MissionPlanner, drone_id: str) -> MissionRecord:
             return record
     # The last drone flying: the mission is aborted whole (and ends now).
     return await planner.stop_mission(record.mission_id, home=True)
-
-
-async def _send_home(planner: MissionPlanner, record: MissionRecord, leg: Leg) -> None:
-    leg.state = LegState.STOPPED
-    going = Leg(
-        leg_id=planner.next_leg_id(record),
-        drone_id=leg.drone_id,
-        role=LegRole.RECOVERY,
-        prefix=list(GO_HOME),
-        state=LegState.STOPPED,  # nothing waits for it: the drone's part is over
-    )
-    await planner.send_leg(record, going)

@@ -257,21 +257,26 @@ class MissionPlanner:
             if record.terminal:
                 return record
             for leg in record.active_legs():
-                if not home:
+                if home:
+                    await self.send_home(record, leg)
+                else:
                     await self.stop_leg(leg)
-                    continue
-                leg.state = LegState.STOPPED
-                going = Leg(
-                    leg_id=self.next_leg_id(record),
-                    drone_id=leg.drone_id,
-                    role=LegRole.RECOVERY,
-                    prefix=list(GO_HOME),
-                    state=LegState.STOPPED,  # the mission is over: nothing waits for it
-                )
-                await self.send_leg(record, going)
             why = "aborted on request: its drones were sent home" if home else "stopped on request"
             await self._finish(record, MissionState.STOPPED, why)
             return record
+
+    async def send_home(self, record: MissionRecord, leg: Leg) -> None:
+        """End ``leg`` and send its drone home (RTL, then land) with a leg nothing waits for:
+        the drone's part of the mission is over."""
+        leg.state = LegState.STOPPED
+        going = Leg(
+            leg_id=self.next_leg_id(record),
+            drone_id=leg.drone_id,
+            role=LegRole.RECOVERY,
+            prefix=list(GO_HOME),
+            state=LegState.STOPPED,
+        )
+        await self.send_leg(record, going)
 
     async def abort_all(self) -> list[MissionRecord]:
         """Abort every unfinished mission (its drones sent home); the missions aborted."""
