@@ -1,6 +1,7 @@
 """Our missions on ArduPilot Copter SITL beside the same waypoints flown as a plain AUTO mission.
 
-For each case — a step mission (5 legs of 100 m at 20 m) with the planner's defaults and with the
+For each case — a step mission (5 legs of 100 m at 20 m, ended as the planner ends every mission:
+home by RTL, issue 28) with the planner's defaults and with the
 seed's strategy, on board; an area of 120 x 80 m at 20 m spacing with photos (one drone, and split
 over two) — this flies the mission the way a user would (Mosquitto, ``dronefleet ground``,
 ``dronefleet drone --fc mavlink`` per vehicle, the REST API), and prints:
@@ -8,7 +9,7 @@ over two) — this flies the mission the way a user would (Mosquitto, ``dronefle
 - our time: vehicle seconds (SITL's ``time_boot_ms``) from the leg's start to its end;
 - our estimate: what ``POST /api/v1/missions/preview`` said before the flight (time, battery);
 - the reference: the same waypoints uploaded by pymavlink as an AUTO mission (take-off, the
-  waypoints, land), from the arm command until ArduPilot disarms;
+  waypoints, RTL: the planner's default end), from the arm command until ArduPilot disarms;
 - the ratios, the battery used, and the end state.
 
     ARDUPILOT_SITL=../shared/ardupilot .venv/bin/python bench/ardupilot_parity.py [--cases ...]
@@ -48,7 +49,6 @@ def step_spec(home: LLA, **options: Any) -> dict[str, Any]:
             {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": ALT_M},
             {"command": "wait_for_flight"},
         ]
-    steps += [{"command": "land"}, {"command": "wait_for_flight"}]
     return {"name": "step", "steps": steps, "options": options}
 
 
@@ -111,7 +111,7 @@ def fly_ours(ground: Ground, spec: dict[str, Any], drones: list[str]) -> dict[st
 
 
 def fly_auto(url: str, home: LLA, waypoints: list[tuple[float, float]]) -> dict[str, Any]:
-    """The reference: pymavlink uploads take-off, the waypoints and land, arms, starts AUTO."""
+    """The reference: pymavlink uploads take-off, the waypoints and RTL, arms, starts AUTO."""
     conn = mavutil.mavlink_connection(url, source_system=254)
     conn.wait_heartbeat(timeout=30)
     sysid, compid = conn.target_system, conn.target_component
@@ -128,7 +128,7 @@ def fly_auto(url: str, home: LLA, waypoints: list[tuple[float, float]]) -> dict[
     items = [(m.MAV_CMD_NAV_WAYPOINT, home.lat, home.lon, 0.0, m.MAV_FRAME_GLOBAL_INT)]
     items.append((m.MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, ALT_M, rel))
     items += [(m.MAV_CMD_NAV_WAYPOINT, lat, lon, ALT_M, rel) for lat, lon in waypoints]
-    items.append((m.MAV_CMD_NAV_LAND, 0.0, 0.0, 0.0, rel))
+    items.append((m.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0.0, 0.0, 0.0, rel))
     conn.mav.mission_count_send(sysid, compid, len(items), m.MAV_MISSION_TYPE_MISSION)
     while True:
         msg = conn.recv_match(type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"],
@@ -168,8 +168,8 @@ def run_case(
         ours = fly_ours(ground, spec, drones)
         again = None
         if twice:  # a fresh pack each, then the same mission estimated with the measured draw
-            # An area ends hovering at its last waypoint; ArduPilot resets a battery only when
-            # disarmed, so each vehicle comes home and lands first.
+            # ArduPilot resets a battery only when disarmed: each vehicle is down first (home by
+            # the default end; an RTL for any that is not).
             for d in drones:
                 if ground.drone(d)["state"] != "disarmed":
                     ground.api("POST", f"/api/v1/drones/{d}/commands/rtl")

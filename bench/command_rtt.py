@@ -64,7 +64,7 @@ async def broker(tmp: Path, nodelay: bool):
     exe = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
     if not Path(exe).exists():  # noqa: ASYNC240 (once, before timing)
         async with EmbeddedBroker(anonymous=True) as embedded:
-            yield str(embedded.url), "embedded (amqtt)"
+            yield str(embedded.url), "embedded (NATS)"
         return
     port = free_port()
     conf = tmp / "mosquitto.conf"

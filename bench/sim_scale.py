@@ -2,15 +2,17 @@
 
 For 10, 100 and 1000 drones — each a whole drone side (Drone Controller with its broker
 connections, heartbeats every 5 vehicle s, telemetry at 5 Hz) on its own simulated vehicle — plus
-the ground's Drone Identifier and Telemetry Analyzer, all on the embedded broker in one
+the ground's Drone Identifier and Telemetry Analyzer, all on the in-process bus in one
 :class:`~dronefleet.virtual_loop.VirtualTimeLoop` at ``--speedup max``, this prints:
 
-- vehicle seconds per wall second once every drone is up (≥ 1 means real time is possible);
+- vehicle seconds per wall second once every drone is up (≥ 1 means real time is possible), and
+  per CPU second of this process (steadier than wall time on a machine busy with other work);
 - heartbeats missed: expected from each drone's interval minus those the ground received;
 - telemetry messages (flight at 5 Hz, sensor readings at 2 Hz) delivered to the ground per wall
   second;
 - drones marked lost by the Drone Identifier (must be 0);
-- the process's resident memory.
+- the process's resident memory;
+- the machine's load average (1 min) at the end of the run: others' work slows wall time.
 
     .venv/bin/python bench/sim_scale.py [--drones 10 100 1000] [--vehicle-s 20] [--profile] [--wall]
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import cProfile
+import os
 import pstats
 import tempfile
 import time
@@ -33,7 +36,7 @@ from dronefleet.ground.identifier import EVENTS_TOPIC
 from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
-from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.messaging.local_bus import LocalBus
 from dronefleet.sim.homes import homes_around
 from dronefleet.simfleet import SimFleet, settle_heap
 
@@ -63,7 +66,7 @@ async def measure(
         counts["telemetry"] += 1
 
     with tempfile.TemporaryDirectory(prefix="dronefleet-scale-") as tmp:
-        async with EmbeddedBroker(anonymous=True) as broker:
+        async with LocalBus(anonymous=True) as broker:
             ground = GroundServices(
                 broker.url,
                 store_url=f"sqlite:///{Path(tmp) / 'telemetry.db'}",
@@ -94,12 +97,14 @@ async def measure(
                         counts["heartbeats"] = counts["telemetry"] = 0
                         heard.clear()
                         t0, v0, wall0 = loop.time(), fleet.clock.now(), time.perf_counter()
+                        cpu0 = time.process_time()
                         if profiler:
                             profiler.enable()  # the steady state only, not the start-up
                         await asyncio.sleep(vehicle_s)
                         if profiler:
                             profiler.disable()
                         wall_s = time.perf_counter() - wall0
+                        cpu_s = time.process_time() - cpu0
                         elapsed_s = loop.time() - t0  # the ground's seconds (wall or virtual)
                         flown_s = fleet.clock.now() - v0
                         telemetry = counts["telemetry"]
@@ -115,11 +120,13 @@ async def measure(
         "drones": count,
         "startup_wall_s": startup_wall_s,
         "vehicle_s_per_wall_s": flown_s / wall_s,
+        "vehicle_s_per_cpu_s": flown_s / cpu_s,
         "heartbeats_missed": missed,
         "telemetry_per_wall_s": telemetry / wall_s,
         "telemetry_per_vehicle_s": telemetry / flown_s,
         "lost": len(lost),
         "rss_mb": rss_mb(),
+        "load": os.getloadavg()[0],
     }
 
 
@@ -127,7 +134,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--drones", type=int, nargs="+", default=[10, 100, 1000])
     parser.add_argument("--vehicle-s", type=float, default=20.0)
-    parser.add_argument("--profile", action="store_true", help="print the top 15 functions")
+    parser.add_argument("--profile", action="store_true", help="print the top functions")
+    parser.add_argument("--top", type=int, default=15, help="how many functions --profile prints")
+    parser.add_argument("--profile-out", type=Path, help="with --profile: also save the stats here")
     parser.add_argument(
         "--wall",
         action="store_true",
@@ -135,8 +144,9 @@ def main() -> None:
     )
     args = parser.parse_args()
     print(
-        f"{'drones':>6} {'startup wall s':>14} {'vehicle s/wall s':>16} {'heartbeats missed':>17}"
-        f" {'telemetry/wall s':>16} {'telemetry/veh s':>15} {'lost':>5} {'RSS MB':>7}"
+        f"{'drones':>6} {'startup wall s':>14} {'vehicle s/wall s':>16} {'vehicle s/CPU s':>15}"
+        f" {'heartbeats missed':>17}"
+        f" {'telemetry/wall s':>16} {'telemetry/veh s':>15} {'lost':>5} {'RSS MB':>7} {'load':>5}"
     )
     for count in args.drones:
         profiler = cProfile.Profile() if args.profile else None
@@ -146,12 +156,15 @@ def main() -> None:
             r = virtual_loop.run(measure(count, args.vehicle_s, profiler))
         print(
             f"{r['drones']:>6} {r['startup_wall_s']:>14.1f} {r['vehicle_s_per_wall_s']:>16.2f}"
-            f" {r['heartbeats_missed']:>17} {r['telemetry_per_wall_s']:>16.0f}"
-            f" {r['telemetry_per_vehicle_s']:>15.0f} {r['lost']:>5} {r['rss_mb']:>7.0f}",
+            f" {r['vehicle_s_per_cpu_s']:>15.2f} {r['heartbeats_missed']:>17}"
+            f" {r['telemetry_per_wall_s']:>16.0f} {r['telemetry_per_vehicle_s']:>15.0f}"
+            f" {r['lost']:>5} {r['rss_mb']:>7.0f} {r['load']:>5.1f}",
             flush=True,
         )
         if profiler:
-            pstats.Stats(profiler).sort_stats("tottime").print_stats(15)
+            if args.profile_out:
+                profiler.dump_stats(args.profile_out)
+            pstats.Stats(profiler).sort_stats("tottime").print_stats(args.top)
 
 
 if __name__ == "__main__":

@@ -3,12 +3,16 @@
 # - everything but the browser tests and the REST fuzzer, on pytest-xdist workers, a test file
 #   per worker at a time (a file's module fixtures are set up once; every test starts its own
 #   brokers and processes on free ports, so files do not share state);
-# - the REST fuzzer (tests/integration/ground/test_ground_openapi_fuzz.py) alongside, in a
-#   process of its own: schemathesis gives all its cases one node id, which xdist cannot spread
-#   (under xdist one case of 59 ran);
-# - then the browser tests, in a process of their own (Playwright's sync API keeps an event loop
-#   running in its thread, which the asyncio tests must not share).
-# pytest's exit 5 (no tests collected) is a failure, never hidden.
+# - beside it, one after the other: the REST fuzzer
+#   (tests/integration/ground/test_ground_openapi_fuzz.py; schemathesis gives all its cases one
+#   node id, which xdist cannot spread) and the browser tests (Playwright's sync API keeps an
+#   event loop running in its thread, which the asyncio tests must not share).
+# Measured on 2 cores: alone, the fuzzer takes 2 min, the browser tests 6, the rest 13. All three
+# at once took 34 min (the fuzzer alone 25 of them: each of its ~13,000 calls waited behind the
+# other two suites' processes); two at a time, the fuzzer and browser tests in turn beside the
+# rest, stays under 20.
+# pytest's exit 5 (no tests collected) is a failure, never hidden. Each part prints its 25
+# slowest tests, so a CI log says where the time went.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 FUZZ=tests/integration/ground/test_ground_openapi_fuzz.py
@@ -26,16 +30,23 @@ pytest() {
   .venv/bin/python -m pytest -q -p no:cacheprovider "$@"
 }
 fuzz_log="$(mktemp)"
-pytest "$FUZZ" "$@" >"$fuzz_log" 2>&1 &
-fuzz_pid=$!
-pytest -n "$WORKERS" --dist loadfile --ignore=tests/e2e --ignore="$FUZZ" "$@"
+e2e_log="$(mktemp)"
+rcs="$(mktemp -d)"
+(
+  pytest "$FUZZ" --durations=10 "$@" >"$fuzz_log" 2>&1
+  echo $? >"$rcs/fuzz"
+  pytest tests/e2e --durations=25 "$@" >"$e2e_log" 2>&1
+  echo $? >"$rcs/e2e"
+) &
+beside=$!
+pytest -n "$WORKERS" --dist loadfile --durations=25 --ignore=tests/e2e --ignore="$FUZZ" "$@"
 check $? "the suite but the browser tests and the fuzzer"
-wait "$fuzz_pid"
-fuzz_rc=$?
+wait "$beside"
 echo "--- $FUZZ"
 cat "$fuzz_log"
-rm -f "$fuzz_log"
-check "$fuzz_rc" "$FUZZ"
-pytest tests/e2e "$@"
-check $? tests/e2e
+check "$(cat "$rcs/fuzz")" "$FUZZ"
+echo "--- tests/e2e"
+cat "$e2e_log"
+check "$(cat "$rcs/e2e")" tests/e2e
+rm -rf "$fuzz_log" "$e2e_log" "$rcs"
 exit "$status"

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import settings
 
 from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.messaging.local_bus import LocalBus
 from dronefleet.virtual_loop import VirtualTimeLoop
 from support.brokers import mosquitto
 
@@ -25,9 +26,18 @@ def pytest_asyncio_loop_factories(config, item):
     return {"wall": asyncio.new_event_loop}
 
 
+def _in_process(request) -> bool:
+    """A test on virtual time passes its messages through the in-process bus: a broker process
+    would hold messages the virtual clock cannot see (messaging/local_bus.py)."""
+    return request.node.get_closest_marker("virtual_time") is not None
+
+
 @pytest.fixture
-async def embedded_broker():
-    async with EmbeddedBroker(anonymous=True) as broker:
+async def embedded_broker(request):
+    """The embedded default (a broker process), or the in-process bus for a test on virtual
+    time; anonymous clients allowed (the security tests use their own users)."""
+    kind = LocalBus if _in_process(request) else EmbeddedBroker
+    async with kind(anonymous=True) as broker:
         yield broker.url
 
 
@@ -41,7 +51,8 @@ def mosquitto_broker(tmp_path):
 async def broker_url(request, tmp_path):
     """Each test using this runs once on the embedded broker and once on a real Mosquitto."""
     if request.param == "embedded":
-        async with EmbeddedBroker(anonymous=True) as broker:
+        kind = LocalBus if _in_process(request) else EmbeddedBroker
+        async with kind(anonymous=True) as broker:
             yield broker.url
     else:
         with mosquitto(tmp_path) as url:

@@ -10,13 +10,21 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
+import math
 import os
+import sqlite3
 import sys
 from pathlib import Path
 from typing import Any
 
 from dronefleet import virtual_loop
-from dronefleet.cli.args import geocoder_url, tiles_source
+from dronefleet.cli.args import (
+    add_trusted_proxy,
+    geocoder_url,
+    http_bind_failure,
+    tiles_source,
+)
 from dronefleet.errors import InvalidInput
 from dronefleet.geo.types import NED
 from dronefleet.signals import stop_event
@@ -28,15 +36,35 @@ DEMO_SQUARE = [NED(30, 0), NED(30, 30), NED(0, 30), NED(0, 0)]
 
 def parse_hostport(text: str) -> tuple[str, int]:
     host, _, port = text.rpartition(":")
-    if not host or not port.isdigit():
-        raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}")
+    if not host or not port.isdigit() or int(port) > 65535:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT (port 0-65535), got {text!r}")
     return host, int(port)
 
 
+EXAMPLES = """examples:
+  dronefleet demo
+      the web UI at http://127.0.0.1:8080/: open the "sign in" link it prints
+  dronefleet demo --http 127.0.0.1:8081 --state-dir /tmp/demo-2
+      a second demo beside the first, with its own databases
+  dronefleet demo --drones 5 --speedup 10 --recharge-s 30 --no-mission
+      five drones, vehicle time 10x the wall clock, batteries swapped after 30 s at home
+"""
+
+
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="the platform on the embedded broker with simulated drones")
+    p = sub.add_parser(
+        "demo",
+        help="the platform on the embedded broker with simulated drones",
+        description="The broker, the ground services (web UI, REST API) and simulated drones in "
+        "one process; prints the web UI's sign-in link and flies a short mission.",
+        epilog=EXAMPLES,
+    )
     p.add_argument(
-        "--http", type=parse_hostport, default=("127.0.0.1", 8080), help="HOST:PORT (0: free)"
+        "--http",
+        type=parse_hostport,
+        default="127.0.0.1:8080",
+        metavar="HOST:PORT",
+        help="where the web UI and REST API listen (port 0: any free port)",
     )
     p.add_argument(
         "--speedup",
@@ -47,7 +75,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--drones", type=int, default=3, help="simulated drones to start")
     p.add_argument(
-        "--state-dir", type=Path, default=Path("var/demo"), help="databases, logs and tokens"
+        "--state-dir",
+        type=Path,
+        default="var/demo",
+        metavar="DIR",
+        help="databases, logs and pictures, made if missing (relative to the current folder)",
     )
     p.add_argument(
         "--tiles",
@@ -59,24 +91,64 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=geocoder_url,
         help="a Nominatim-compatible geocoder's URL for address search (asked by the ground)",
     )
-    p.add_argument("--token", help="use this operator token instead of a fresh one")
+    p.add_argument(
+        "--token",
+        help="the operator token to accept (default: a fresh one on the first run, printed once)",
+    )
     p.add_argument("--no-mission", action="store_true", help="do not fly the demo mission")
     p.add_argument(
         "--external-drone",
         action="append",
         default=[],
         metavar="ID",
-        help="let a drone run apart join (its broker password is written to the state dir)",
+        help="let a drone run apart join (its broker password is written to the state dir); "
+        "repeatable",
     )
     p.add_argument("--once", action="store_true", help="exit when the demo mission is done")
+    p.add_argument(
+        "--recharge-s",
+        type=_seconds,
+        default=60.0,
+        metavar="S",
+        help="a drone on the ground at its home, disarmed, for S vehicle seconds gets a full "
+        "battery (a swap), so it can fly again or take over; 0: never",
+    )
+    add_trusted_proxy(p)
     p.set_defaults(func=run)
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not 0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be 0 or more seconds, not {text!r}")
+    return value
 
 
 def run(args: argparse.Namespace) -> int:
     if args.drones < 0:
         print("dronefleet demo: --drones must be >= 0", file=sys.stderr)
         return 2
-    args.state_dir.mkdir(parents=True, exist_ok=True)
+    from dronefleet.owner_only import private_umask
+
+    private_umask()  # databases, logs, pictures: the owner's only (issue 25)
+    # Absolute from here on: the telemetry store's URL and every file under it (issue 29: the
+    # relative default once made sqlite:///var/demo/..., read as /var/demo).
+    args.state_dir = args.state_dir.expanduser().resolve()
+    if math.isinf(args.speedup) and args.external_drone:
+        print(
+            "dronefleet demo: --external-drone needs a broker process, and --speedup max runs on "
+            "the in-process bus (a broker process would hold messages the virtual clock cannot "
+            "see); choose a finite --speedup",
+            file=sys.stderr,
+        )
+        return 2
+    problem = _state_dir_problem(args.state_dir)
+    if problem is not None:
+        print(f"dronefleet demo: {problem}; choose another with --state-dir DIR", file=sys.stderr)
+        return 2
     try:
         # Everything runs in this process, so everything runs on one virtual clock (issue 9).
         return virtual_loop.run(_demo(args), speedup=args.speedup)
@@ -86,6 +158,25 @@ def run(args: argparse.Namespace) -> int:
     except InvalidInput as exc:  # e.g. --tiles names a file that is not a raster MBTiles set
         print(f"dronefleet demo: {exc}", file=sys.stderr)
         return 2
+    except sqlite3.Error as exc:  # a database in the state folder that SQLite cannot use
+        print(f"dronefleet demo: a database in {args.state_dir}: {exc}", file=sys.stderr)
+        return 1
+
+
+def _state_dir_problem(state_dir: Path) -> str | None:
+    """Why the demo cannot keep its files in ``state_dir`` (made if missing, 0700), in a few
+    words; None when it can."""
+    from dronefleet.owner_only import make_dir
+
+    try:
+        make_dir(state_dir)
+    except OSError as exc:
+        return f"cannot make the state folder {state_dir}: {exc.strerror or exc}"
+    if not state_dir.is_dir():
+        return f"the state folder {state_dir} is not a folder"
+    if not os.access(state_dir, os.W_OK | os.X_OK):
+        return f"cannot write in the state folder {state_dir}: Permission denied"
+    return None
 
 
 #: Where the demo's CO2 plume is, from home (5,000 ppm at its centre, 15 m wide, at sea level).
@@ -158,14 +249,33 @@ def _external_drones(broker: Any, names: list[str], state_dir: Path) -> list[str
     return lines
 
 
+def _drone_urls(broker: Any, ids: list[str]) -> list[Any]:
+    """Each drone's broker user and URL, with one reload of the broker's configuration for them
+    all: the NATS broker re-reads its users at each change, and 200 drones made 200 reloads,
+    each slower than the last (one took over its 5 s limit beside 130 connected drones)."""
+    from dronefleet.messaging.broker_users import BrokerRole
+
+    if not ids:
+        return []
+    passwords = [broker.users.add(drone_id, BrokerRole.DRONE) for drone_id in ids[:-1]]
+    last = broker.url_for(ids[-1], BrokerRole.DRONE)  # the reload, with every user above
+    others = [
+        dataclasses.replace(last, username=drone_id, password=password)
+        for drone_id, password in zip(ids[:-1], passwords, strict=True)
+    ]
+    return [*others, last]
+
+
 async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.cli.drone import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
     from dronefleet.geo.ned import ned_to_lla
     from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
+    from dronefleet.ground.telemetry.store import sqlite_url
     from dronefleet.messaging.broker_users import BrokerRole
     from dronefleet.messaging.embedded import EmbeddedBroker
+    from dronefleet.messaging.local_bus import LocalBus
     from dronefleet.sim.homes import homes_around
     from dronefleet.simfleet import SimFleet, settle_heap
 
@@ -174,19 +284,30 @@ async def _demo(args: argparse.Namespace) -> int:
     state_dir: Path = args.state_dir
     host, port = args.http
     # Every part gets its own broker credentials, in memory only; strangers are refused (the
-    # printed broker address carries none: issue 12).
-    async with EmbeddedBroker() as broker:
+    # printed broker address carries none: issue 12). The broker is the embedded NATS process,
+    # but at --speedup max virtual time would run on while a message is in that process (its
+    # answers would come "late"): then the demo runs on the in-process bus, with the same rules.
+    broker_kind = LocalBus if math.isinf(args.speedup) else EmbeddedBroker
+    async with broker_kind() as broker:
         ground_url = broker.url_for("ground", BrokerRole.GROUND)
         ground = GroundServices(
             ground_url,
-            store_url=f"sqlite:///{state_dir / 'telemetry.db'}",
+            store_url=sqlite_url(state_dir / "telemetry.db"),  # absolute: sqlite:////...
             state_path=state_dir / "ground.db",
             http_host=host,
             http_port=port,
             tiles=args.tiles,
             geocoder=args.geocoder,
+            trusted_proxies=args.trusted_proxy,
         )
-        await ground.start()
+        try:
+            await ground.start()  # stops what it started if it fails
+        except OSError as exc:
+            line = http_bind_failure(exc, host, port)
+            if line is None:
+                raise
+            print(f"dronefleet demo: {line}", file=sys.stderr)
+            return 2
         try:
             assert ground.state is not None  # started above
             tokens = await _tokens(TokenBook(ground.state), state_dir, args.token)
@@ -196,11 +317,14 @@ async def _demo(args: argparse.Namespace) -> int:
             spot = ned_to_lla(DEMO_PLUME, home)
             async with SimFleet(plumes=[(spot.lat, spot.lon, 5000.0, 15.0)]) as fleet:
                 ids = [f"QUAD_{i + 1}" for i in range(args.drones)]
-                for drone_id, spot in zip(ids, homes_around(home, args.drones), strict=True):
-                    config = DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs")
-                    await fleet.add_drone(
-                        config, broker.url_for(drone_id, BrokerRole.DRONE), home=spot
+                drones = [
+                    (DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs"), url, spot)
+                    for drone_id, url, spot in zip(
+                        ids, _drone_urls(broker, ids), homes_around(home, args.drones), strict=True
                     )
+                ]
+                # Started many at a time: each start waits for the broker's answers.
+                await fleet.add_drones(drones, recharge_s=args.recharge_s or None)  # battery swap
                 settle_heap()
                 print(f"broker: {broker.url}")
                 for line in joining:
@@ -208,11 +332,14 @@ async def _demo(args: argparse.Namespace) -> int:
                 print(f"web UI: {ground.http_url}/")
                 print(f"API docs: {ground.http_url}/docs")
                 if tokens is None:
-                    print("tokens: kept from the last run (only their hashes are stored)")
+                    print(
+                        "tokens: kept from the last run (only their hashes are stored): its "
+                        "sign-in link still works; --token TOKEN sets a new operator token"
+                    )
                 else:
                     print(f"operator token: {tokens[0]}")
                     print(f"viewer token: {tokens[1]}")
-                    print(f"sign in: {ground.http_url}/?token={tokens[0]}")
+                    print(f"sign in (open in a browser): {ground.http_url}/?token={tokens[0]}")
                 print(
                     f"{len(ids)} simulated drones ({', '.join(ids) or 'none'}); vehicle time runs "
                     f"{args.speedup:g}x at most. Ctrl-C stops everything.",

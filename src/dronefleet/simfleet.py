@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import gc
+from collections.abc import Sequence
 from typing import Any
 
 from dronefleet.drone.app import DroneApp
@@ -94,6 +95,30 @@ class SimFleet:
         pictures = config.log_dir / "pictures" if config.log_dir is not None else None
         camera = SimCamera(vehicle, pictures)
         return await self.launch(config, fc, broker, sensors=sensors, camera=camera, start=start)
+
+    async def add_drones(
+        self,
+        drones: Sequence[tuple[DroneConfig, str | BrokerUrl, LLA]],
+        *,
+        at_once: int = 50,
+        **vehicle_params: Any,
+    ) -> list[DroneApp]:
+        """:meth:`add_drone` for each ``(config, broker, home)``, up to ``at_once`` starting at a
+        time: a drone's start is a few broker round trips (connect, its subscriptions), which a
+        broker in another process answers in milliseconds each, so a fleet of hundreds started
+        one by one took minutes. The vehicles and apps are made in the order given."""
+        apps = [
+            await self.add_drone(config, broker, home=home, start=False, **vehicle_params)
+            for config, broker, home in drones
+        ]
+        gate = asyncio.Semaphore(max(1, at_once))
+
+        async def start(app: DroneApp) -> None:
+            async with gate:
+                await app.start()
+
+        await asyncio.gather(*(start(app) for app in apps))
+        return apps
 
     async def launch(
         self,

@@ -95,14 +95,7 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         self._anchor_virtual_s = self._virtual_s
         self._anchor_wall_s = time.monotonic()
         self.busy_jobs = 0
-        _follow_loop_time_in_paho(self)
         super().__init__(_PacedSelector(self))
-
-    def close(self) -> None:
-        global _current
-        if _current is self:
-            _current = None
-        super().close()
 
     # -- time -------------------------------------------------------------------------------------
     def time(self) -> float:
@@ -178,28 +171,6 @@ async def held(awaitable: Awaitable[T]) -> T:
         return await awaitable
     finally:
         loop.busy_jobs -= 1
-
-
-#: The virtual loop of this process, if one is open; read from paho's executor threads too.
-_current: VirtualTimeLoop | None = None
-
-
-def _paho_time() -> float:
-    """paho's keep-alive clock: the virtual loop's time while one is open (also in the executor
-    thread where aiomqtt runs paho's blocking connect, so both stamps are on one clock)."""
-    loop = _current
-    return loop.time() if loop is not None else time.monotonic()
-
-
-def _follow_loop_time_in_paho(loop: VirtualTimeLoop) -> None:
-    # paho-mqtt times keep-alive pings with a module-level ``time_func`` (time.monotonic). On a
-    # virtual loop the broker (amqtt, on loop time) would otherwise see a silent client for many
-    # virtual keep-alive periods and drop it. On an ordinary loop both clocks are the same.
-    import paho.mqtt.client as paho_client
-
-    global _current
-    _current = loop
-    paho_client.time_func = _paho_time
 
 
 def run(

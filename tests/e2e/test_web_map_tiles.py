@@ -47,6 +47,10 @@ def test_without_a_tile_url_the_map_draws_the_offline_grid(open_page, demo):
     assert fill == [244, 246, 248, 255] and line == [221, 226, 231, 255], (fill, line)
     hosts = {urlsplit(u).hostname for u in [*loaded_urls(page), *requests]}
     assert hosts <= LOOPBACK, f"requests left the machine: {hosts}"
+    # The grid alone says on the map how to get imagery (issue 29).
+    assert page.inner_text("#fleet-map-no-tiles") == (
+        "no map tiles: start the ground with --tiles FILE.mbtiles"
+    )
     console.assert_clean()
 
 
@@ -110,6 +114,7 @@ def test_with_a_tile_url_the_map_loads_tiles_from_it(open_page, tmp_path):
         # The offline grid stays underneath; nothing but loopback was asked.
         assert page.locator("#fleet-map canvas.leaflet-tile").count() > 0
         assert {urlsplit(u).hostname for u in loaded_urls(page)} <= LOOPBACK
+        assert page.locator("#fleet-map-no-tiles").count() == 0
         console.assert_clean()
     finally:
         server.stop()
@@ -161,6 +166,7 @@ def test_with_an_mbtiles_file_the_map_draws_its_tiles(open_page, tmp_path):
         # Nothing left the machine; the grid is still underneath.
         assert {urlsplit(u).hostname for u in loaded_urls(page)} <= LOOPBACK
         assert page.locator("#fleet-map canvas.leaflet-tile").count() > 0
+        assert page.locator("#fleet-map-no-tiles").count() == 0  # imagery: no note (issue 29)
         ARTIFACTS.mkdir(parents=True, exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / "map-mbtiles.png"))
         console.assert_clean()

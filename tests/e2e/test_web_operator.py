@@ -77,7 +77,9 @@ def test_the_fleet_panel_shows_a_drone_and_acts_on_it_alone(open_page, demo, scr
     assert figure("gps").inner_text() == "3-D fix, 12 satellites"
     assert figure("link").inner_text().startswith("online, heard")
     assert figure("wind").inner_text() == "0.0 m/s from 180°"  # the demo's world is calm
-    assert figure("mission").inner_text() == mission
+    # The drone's own word: its heartbeat names the mission it flies (a drone still flying home
+    # from an earlier test shows "flying" before this mission's first heartbeat).
+    expect(figure("mission")).to_have_text(mission, timeout=30_000)
     for key, unit in [("altitude", " m"), ("speed", " m/s"), ("home", " m")]:
         assert figure(key).inner_text().endswith(unit), (key, figure(key).inner_text())
     assert "min" in figure("time-left").inner_text()  # 100 % at hover current: about 10 min
@@ -183,7 +185,7 @@ def test_the_step_list_has_names_units_a_sensible_new_point_and_refusals_at_thei
 def _clear_spot(fleet: list[dict]) -> dict:
     """A home for a drone of the test's own, 40 m or more from every drone of the demo (where
     it is and where its home is: an earlier test may have left one hovering), so that the plan's
-    separation check has nothing to refuse (ground/planner/deconflict.py)."""
+    separation check has nothing to refuse (ground/planner/deconflict/)."""
     first = fleet[0]["home"]
     places = [d[key] for d in fleet for key in ("home", "position") if d.get(key)]
     for north_m, east_m in ((-60, 0), (-60, 60), (0, 80), (60, 60), (-60, -60), (0, -80)):

@@ -186,6 +186,24 @@ def test_the_planner_shows_where_a_handover_happened(open_page, demo, screenshot
     taker = re.fullmatch(r"handover: QUAD_1 → (QUAD_\d) \(on alarm\)", label.inner_text())
     assert taker and taker.group(1) != "QUAD_1", label.inner_text()
     assert "4/4 waypoints" in page.inner_text("#mission-status")
+    # The timeline says what replacement did, and each drone has its bar (issue 29).
+    events = page.locator("#plan-progress-events li")
+    expect(
+        events.filter(has_text="CRITICAL alarm on QUAD_1: smoke; replacement is on")
+    ).to_have_count(1)
+    expect(events.filter(has_text=f"QUAD_1 replaced by {taker.group(1)}")).to_have_count(1)
+    expect(events.first).to_contain_text("completed: 4/4 waypoints")  # newest first
+    rows = page.locator("#plan-progress-drones tbody tr")
+    expect(rows).to_have_count(2)
+    first = page.locator("#plan-progress-drones tr[data-drone='QUAD_1']")
+    expect(first).to_have_attribute("data-doing", "handed over")
+    # Each did its part to the end: the steps handed over are the taker's share, not QUAD_1's.
+    assert float(first.get_attribute("data-share")) == 1.0
+    after = page.locator(f"#plan-progress-drones tr[data-drone='{taker.group(1)}']")
+    assert float(after.get_attribute("data-share")) == 1.0
+    reached = [int(re.search(r"(\d+)/\d+ waypoints", row.inner_text()).group(1))
+               for row in (first, after)]  # fmt: skip
+    assert 0 < reached[0] < 4 and sum(reached) == 4, reached
     screenshot(page, "8-planner-handover")
     console.assert_clean()
 
@@ -213,14 +231,31 @@ def test_the_planner_pauses_and_resumes_a_mission(open_page, demo, screenshot):
     page.wait_for_selector(f"#plan-watch option[value='{mission}']", state="attached")
     page.select_option("#plan-watch", mission)
     page.wait_for_selector(f"#mission-status[data-mission='{mission}'][data-state='running']")
+    # Its bar moves on and its time left is estimated (issue 29), polled every 3 s.
+    row = page.locator("#plan-progress-drones tr[data-drone='QUAD_2']")
+    shares = []
     for _ in range(300):  # in the air, its first waypoint flown
-        if get(demo, f"/missions/{mission}")["steps_done"] >= 2:
+        if row.count():
+            shares.append(float(row.get_attribute("data-share")))
+        if get(demo, f"/missions/{mission}")["steps_done"] >= 2 and shares and shares[-1] > 0:
             break
         time.sleep(0.1)
+    expect(row.locator("td.eta")).to_contain_text(re.compile(r"\d+ s left"), timeout=15_000)
+    expect(row.locator("td.step")).to_contain_text(re.compile(r"^step \d+/\d+: "))
+    assert shares[-1] > 0 and shares == sorted(shares), shares
     page.click("#plan-pause")
     page.wait_for_selector("#mission-status[data-state='paused']", timeout=30_000)
     expect(page.locator("#mission-status")).to_contain_text("paused by the operator")
+    events = page.locator("#plan-progress-events li")
+    expect(events.filter(has_text="QUAD_2 paused: paused by the operator")).to_have_count(1)
     screenshot(page, "9-planner-paused")
+    # The Fleet page shows the running mission too: its bar, step and events.
+    fleet, fleet_console = open_page("fleet")
+    box = fleet.locator(f"#fleet-missions article[data-mission='{mission}']")
+    expect(box.locator("tr[data-drone='QUAD_2'] progress")).to_have_count(1, timeout=15_000)
+    expect(box.locator("li[data-kind='paused']")).to_have_count(1)
+    screenshot(fleet, "9-fleet-mission-progress")
+    fleet_console.assert_clean()
     page.click("#plan-resume")
     done = f"#mission-status[data-mission='{mission}'][data-state='completed']"
     try:
@@ -228,6 +263,8 @@ def test_the_planner_pauses_and_resumes_a_mission(open_page, demo, screenshot):
     except Exception:
         raise AssertionError(get(demo, f"/missions/{mission}")) from None
     assert "4/4 waypoints" in page.inner_text("#mission-status")
+    expect(page.locator("#plan-progress-events li[data-kind='resumed']")).to_have_count(1)
+    assert row.get_attribute("data-share") == "1" and row.get_attribute("data-doing") == "done"
     console.assert_clean()
 
 
@@ -272,6 +309,9 @@ def test_the_planner_maps_what_the_drones_measured(open_page, demo, screenshot):
     key = page.inner_text("#readings-key")
     low, high = (float(v) for v in re.findall(r"(?:green|red) (\d+)", key))
     assert high > 1000 > low, key  # the plume stands out of the 400 ppm background
+    # What collaboration did, in the timeline (issue 29: it happened without the operator knowing).
+    grown = page.locator("#plan-progress-events li[data-kind='expansion']")
+    expect(grown).to_contain_text(re.compile(r"alarm on QUAD_3.*: area expanded .* called"))
     screenshot(page, "10-planner-readings")
     console.assert_clean()
 
@@ -327,4 +367,79 @@ def test_shift_escape_aborts_every_mission_from_any_page(open_page, demo):
     record = get(demo, f"/missions/{mission}")
     assert record["state"] == "stopped"
     wait_landed_at_home(demo, ["QUAD_1"], after=record["ended_at"], timeout_s=90)
+    console.assert_clean()
+
+
+def add_step(page, command: str) -> None:
+    page.click(f".palette li[data-command='{command}'] button")
+
+
+def test_a_step_lists_preview_draws_its_route_and_counts_its_waypoints(open_page):
+    page, console = open_page("planner")
+    page.wait_for_selector(f"#plan-drone-{DRONE}")
+    page.check(f"#plan-drone-{DRONE}")
+    page.select_option("#plan-kind", "steps")
+    for command in ("navigate", "wait_for_flight", "navigate", "wait_for_flight"):
+        add_step(page, command)
+    lat = page.locator("#step-list li[data-index='2'] input[data-param='lat']")
+    lat.fill(str(float(lat.input_value()) + 30 / M_PER_DEG))  # 30 m north of the first
+    lat.dispatch_event("change")
+    body = preview(page).json()
+    assert len(body["waypoints"]) == 2, body["waypoints"]
+    assert body["waypoints"][1]["lat"] == pytest.approx(float(lat.input_value()))
+    page.wait_for_selector("#estimate-table caption:text-matches('^2 waypoints')")
+    # The route is drawn per drone in the drone's colour (issue 29, item 8), the step list's too.
+    route = page.locator(f"#planner-map path.route-share[data-drone='{DRONE}']")
+    expect(route).to_have_count(1)
+    assert route.get_attribute("d").count("L") == 1  # one line between the two points
+    expect(page.locator(f"#route-legend li[data-drone='{DRONE}']")).to_contain_text("2 waypoints")
+    console.assert_clean()
+
+
+def test_with_its_switches_off_a_mission_calls_no_replacement_and_says_so(
+    open_page, demo, screenshot
+):
+    page, console = open_page("planner")
+    drone = "QUAD_2"
+    page.wait_for_selector(f"#plan-drone-{drone}")
+    # On by default, as the API's options are.
+    assert page.is_checked("#plan-replacement") and page.is_checked("#plan-collaboration")
+    page.uncheck("#plan-replacement")
+    page.uncheck("#plan-collaboration")
+    page.check(f"#plan-drone-{drone}")
+    page.select_option("#plan-kind", "steps")
+    for command in ("navigate", "wait_for_flight"):
+        add_step(page, command)
+    lat = page.locator("#step-list li[data-index='0'] input[data-param='lat']")
+    lat.fill(str(float(lat.input_value()) + 20 / M_PER_DEG))
+    lat.dispatch_event("change")
+    sent = {}
+
+    def with_an_alarm(route):
+        """The palette has no alarm step: the seed's virtual alarm is added on the way."""
+        body = route.request.post_data_json
+        sent.update(body)
+        body["steps"].append({"command": "virtualalarm", "level": "CRITICAL", "message": "smoke"})
+        route.continue_(post_data=json.dumps(body))
+
+    page.route(re.compile(r".*/api/v1/missions\?.*start=true.*"), with_an_alarm)
+    for _ in range(60):  # QUAD_2 may still be coming home from an earlier test
+        if get(demo, f"/drones/{drone}").get("mission_id") is None:
+            break
+        time.sleep(1.0)
+    page.click("#plan-send")
+    page.click("#preflight-send")
+    page.wait_for_selector("#mission-status[data-mission]", timeout=30_000)
+    options = sent["options"]
+    assert options["replacement"] is options["early_replacement"] is options["collaboration"]
+    assert options["replacement"] is False
+    page.wait_for_selector("#mission-status:not([data-state='running'])", timeout=120_000)
+    mission = page.get_attribute("#mission-status", "data-mission")
+    events = page.locator("#plan-progress-events li[data-kind='alarm']")
+    expect(events).to_contain_text(
+        f"CRITICAL alarm on {drone}: smoke; replacement is off: nobody takes over", timeout=15_000
+    )
+    record = get(demo, f"/missions/{mission}")
+    assert record["handovers"] == [] and {leg["drone_id"] for leg in record["legs"]} == {drone}
+    screenshot(page, "9-planner-replacement-off")
     console.assert_clean()

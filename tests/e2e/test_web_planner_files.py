@@ -66,6 +66,15 @@ def test_a_qgroundcontrol_plan_is_imported_and_exported_for_mavsdk(open_page, tm
     screenshot(page, "planner-imported-plan")
 
     page.check("#plan-drone-QUAD_1")
+    # Its route previewed: the imported navigate steps (issue 29: "waypoints": [] before).
+    navigate = page.locator("#step-list > li[data-command='navigate']")
+    with page.expect_response(lambda r: r.url.endswith("/missions/preview")) as answer:
+        page.click("#plan-preview")
+    assert answer.value.ok, answer.value.text()
+    routed = [(round(w["lat"], 7), round(w["lon"], 7)) for w in answer.value.json()["waypoints"]]
+    assert len(routed) == navigate.count() == 3, routed
+    assert routed[1] == (40.631, -8.659)
+    page.wait_for_selector("#estimate-table caption:text-matches('^3 waypoints')")
     with page.expect_download() as info:
         page.click("#plan-export")
     path = tmp_path / "exported.plan"

@@ -35,7 +35,7 @@ def test_a_survey_flown_to_completion_leaves_every_drone_landed_at_home_and_disa
     record = get(demo, f"/missions/{mission}")
     assert {leg["drone_id"] for leg in record["legs"]} == set(DRONES)
     # Each share ends with the way home (RTL, then waiting until the vehicle is down), flown
-    # first on a layer of its own when the other drone goes home too (ground/planner/deconflict.py).
+    # first on a layer of its own when the other drone goes home too (ground/planner/deconflict/).
     ends = [[step["command"] for step in leg["suffix"]] for leg in record["legs"]]
     assert all(end[-2:] == ["rtl", "wait_for_flight"] for end in ends), ends
     wait_landed_at_home(demo, DRONES, after=record["ended_at"])

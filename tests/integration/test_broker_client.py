@@ -165,3 +165,55 @@ async def test_a_message_received_but_not_yet_handled_is_delivered_again_after_a
         await asyncio.sleep(1.0)
         await third.stop()
         assert third_got.empty()
+
+
+async def test_overlapping_subscriptions_of_one_client_get_each_message_once(broker_url):
+    """A drone's one connection holds its logger's ``<id>/#`` beside its controller's
+    ``<id>/mission/in``: a broker that sends a copy per matching filter must not start a
+    mission twice (the client holds only the wider filter at the broker)."""
+    wide: list[bytes] = []
+    narrow: list[bytes] = []
+
+    async def on_wide(_t: str, payload: bytes) -> None:
+        wide.append(payload)
+
+    async def on_narrow(_t: str, payload: bytes) -> None:
+        narrow.append(payload)
+
+    async with BrokerClient(broker_url, "drone") as drone, BrokerClient(broker_url, "gr") as gr:
+        await drone.subscribe("CAM/mission/in", on_narrow, qos=1)
+        await drone.subscribe("CAM/#", on_wide, qos=0)  # wider, added after: replaces it
+        await asyncio.sleep(0.3)
+        for n in range(3):
+            await gr.publish("CAM/mission/in", f"{n}".encode(), qos=1)
+        await gr.publish("CAM/telemetry/out", b"t", qos=0)
+        for _ in range(50):
+            if len(wide) >= 4 and len(narrow) >= 3:
+                break
+            await asyncio.sleep(0.05)
+        await asyncio.sleep(0.3)
+    assert narrow == [b"0", b"1", b"2"]
+    assert sorted(wide) == [b"0", b"1", b"2", b"t"]
+
+
+def test_which_filters_cover_which() -> None:
+    from dronefleet.messaging.client import covers
+
+    assert covers("CAM/#", "CAM/mission/in") and covers("CAM/#", "CAM")
+    assert covers("+/+/out", "CAM/telemetry/out") and covers("#", "+/x/#")
+    assert not covers("CAM/mission/in", "CAM/#") and not covers("+/+/out", "+/#")
+    assert not covers("CAM/+", "CAM/a/b") and not covers("A/#", "B/x")
+
+
+async def test_a_client_stopped_and_started_again_hears_its_subscriptions(embedded_broker):
+    got: asyncio.Queue = asyncio.Queue()
+    client = BrokerClient(embedded_broker, "again")
+    async with BrokerClient(embedded_broker, "pub") as pub:
+        await client.start()
+        await client.subscribe("A/control/in", lambda t, p: got.put(p))
+        await client.stop()
+        await client.start()
+        await asyncio.sleep(0.2)
+        await pub.publish("A/control/in", b"1")
+        assert await asyncio.wait_for(got.get(), 5) == b"1"
+        await client.stop()

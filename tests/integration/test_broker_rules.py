@@ -1,13 +1,15 @@
 """No one commands a drone without credentials, and a drone speaks only for itself (issue 12).
 
-Against the embedded broker (amqtt with messaging/embedded_auth.py) and a real Mosquitto started
-with the password and ACL files `mosquitto_files` writes: the same rules on both.
+Against the embedded broker (a NATS server process, messaging/nats_config.py) and a real
+Mosquitto started with the password and ACL files `mosquitto_files` writes: the same rules on
+both.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import getpass
 import os
 
 import aiomqtt
@@ -112,7 +114,8 @@ async def test_the_drones_own_mosquitto_from_bridge_config_refuses_strangers(tmp
     port = free_port()
     args = ("bridge-config", "--drone-id", "QUAD_1", "--ground", f"127.0.0.1:{free_port()}",
             "--username", "QUAD_1", "--password-file", str(secret),
-            "--listener", f"127.0.0.1:{port}", "--local-dir", str(tmp_path / "drone"))  # fmt: skip
+            "--listener", f"127.0.0.1:{port}", "--local-dir", str(tmp_path / "drone"),
+            "--owner", getpass.getuser())  # it runs as us (user root below)  # fmt: skip
     done = await asyncio.to_thread(
         subprocess.run, dronefleet(*args), capture_output=True, text=True, check=True
     )

@@ -9,6 +9,7 @@ log in with passwords read from 0600 files. A mission sent over REST is flown to
 
 from __future__ import annotations
 
+import getpass
 import os
 import secrets
 import subprocess
@@ -46,12 +47,14 @@ def test_a_fleet_with_credentials_everywhere_flies_a_mission_and_refuses_strange
     cli("credentials", "add-drone", "QUAD_S", "--state", str(state),
         "--password-file", str(tmp_path / "QUAD_S.secret"))  # fmt: skip
     ground_port, drone_port, http_port = free_port(), free_port(), free_port()
+    me = getpass.getuser()  # both Mosquittos run as us (user root below), not as mosquitto
     cli("broker-config", "--state", str(state), "--out", str(tmp_path / "ground-broker"),
-        "--listener", f"127.0.0.1:{ground_port}")  # fmt: skip
+        "--listener", f"127.0.0.1:{ground_port}", "--owner", me)  # fmt: skip
     drone_conf = cli(
         "bridge-config", "--drone-id", "QUAD_S", "--ground", f"127.0.0.1:{ground_port}",
         "--username", "QUAD_S", "--password-file", str(tmp_path / "QUAD_S.secret"),
         "--listener", f"127.0.0.1:{drone_port}", "--local-dir", str(tmp_path / "drone-broker"),
+        "--owner", me,
     )  # fmt: skip
     ground_conf = (tmp_path / "ground-broker" / "dronefleet.conf").read_text()
     token = secrets.token_urlsafe(16)

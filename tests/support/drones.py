@@ -100,3 +100,19 @@ def read_jsonl(path: Path) -> list[dict[str, Any]]:
     import orjson
 
     return [orjson.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+async def until_mid_leg(vehicle: Any, left_m: float = 15.0) -> None:
+    """Wait until a simulated vehicle is flying a leg with ``left_m`` or more to go and speed.
+
+    A pilot's switch taken while the drone is sending its next ``navigate`` races with it: the
+    later of the two wins on the autopilot as on a real one, and a test that switched "after the
+    4th step" lost that race on a loaded host. Mid-leg, the drone only waits for the flight, so
+    the switch is the pilot's alone. Checked and switched with no await between (the simulator
+    runs on this event loop)."""
+    while True:
+        target = vehicle.target_ned
+        moving = vehicle.velocity_ned.horizontal_m > 1.0
+        if target is not None and moving and (target - vehicle.position_ned).horizontal_m >= left_m:
+            return
+        await asyncio.sleep(0.005)

@@ -63,8 +63,10 @@ class FakeDrone:
         return {
             "drone_id": self.drone_id,
             "timestamp": time.time(),
-            "vehicle_time_s": time.monotonic() - self._t0,
-            "interval_s": 5.0,  # vehicle seconds; sent faster in wall time, like a sped-up sim
+            # A sped-up sim: 5 vehicle seconds between heartbeats, ``interval_s`` of wall time
+            # (the ground reads the rate from these two stamps, ground/fleet.py).
+            "vehicle_time_s": (time.monotonic() - self._t0) * 5.0 / self.interval_s,
+            "interval_s": 5.0,
             "position": {"lat": 40.63, "lon": -8.659, "alt_m": 10.0, "relative_alt_m": 0.0},
             "battery": {"remaining_pct": 97.0, "voltage_v": 16.4},
             "state": self.state,

@@ -6,6 +6,8 @@ QUAD_B waits to take over.
 
 from __future__ import annotations
 
+import asyncio
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 from dronefleet.experiments import scenarios
@@ -14,6 +16,7 @@ from dronefleet.geo.types import NED
 from dronefleet.ground.planner import launch
 from dronefleet.ground.planner.coverage import AreaSpec, plan_area
 from dronefleet.ground.planner.estimate import estimate
+from dronefleet.ground.planner.models import MissionRecord
 from dronefleet.ground.planner.options import MissionOptions
 from dronefleet.ground.planner.units import units
 
@@ -46,6 +49,34 @@ async def fly_with_a_spare(
     spec = launch.MissionSpec(name="faults", drones=["QUAD_A"], steps=steps, options=options)
     record = await launch.create(h.planner, spec, start=True)
     return record.mission_id
+
+
+async def restart_ground_after(
+    h: Harness,
+    options: MissionOptions,
+    happened: asyncio.Event,
+    *,
+    turns: int = 0,
+    while_down: Callable[[], Awaitable[None]] | None = None,
+    wait_s: float = 120,
+    ended_s: float = 240,
+) -> MissionRecord:
+    """QUAD_A, hovering at 10 m, flies the small field and raises a CRITICAL alarm; QUAD_B idles
+    at (77, 70) (:func:`fly_with_a_spare`). Once ``happened`` is set (within ``wait_s``) and
+    ``turns`` event-loop turns later, the ground is stopped, ``while_down`` runs, and the ground
+    is started again. The mission's record once it has ended (within ``ended_s``)."""
+    mission_id = await fly_with_a_spare(
+        h, small_field_steps("CRITICAL"), options, spare_at=NED(77, 70), hovering_m=10
+    )
+    async with asyncio.timeout(wait_s):
+        await happened.wait()
+    for _ in range(turns):
+        await asyncio.sleep(0)
+    await h.stop_ground()
+    if while_down is not None:
+        await while_down()
+    await h.start_ground()
+    return await h.until_ended(mission_id, timeout_s=ended_s)
 
 
 async def fly_early_handover(h: Harness, options: MissionOptions) -> Any:

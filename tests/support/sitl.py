@@ -115,12 +115,17 @@ class Vehicle:
 
 
 def _start_sitl(
-    binary: Path, parm: Path | None, folder: Path, instance: int, params: dict[str, float]
+    binary: Path,
+    parm: Path | None,
+    folder: Path,
+    instance: int,
+    params: dict[str, float],
+    home: tuple[float, float, float] = HOME,
 ) -> Vehicle:
     folder.mkdir(parents=True, exist_ok=True)
     cmd = [
         str(binary), "--model", "+", "--speedup", str(SITL_SPEEDUP),
-        "--home", ",".join(str(x) for x in (*HOME, 0)), "-I", str(instance),
+        "--home", ",".join(str(x) for x in (*home, 0)), "-I", str(instance),
         "--sysid", str(instance + 1),
     ]  # fmt: skip
     defaults = [str(parm)] if parm is not None else []
@@ -143,15 +148,18 @@ def _start_sitl(
 
 @contextlib.contextmanager
 def sitl_vehicle(
-    sitl_binary: tuple[Path, Path | None], folder: Path, params: dict[str, float] | None = None
+    sitl_binary: tuple[Path, Path | None],
+    folder: Path,
+    params: dict[str, float] | None = None,
+    home: tuple[float, float, float] = HOME,
 ) -> Iterator[Vehicle]:
     """One SITL Copter on a free instance number, retried once if it exits at start;
-    ``params`` are loaded as defaults after SITL's own."""
+    ``params`` are loaded as defaults after SITL's own; ``home``: lat, lon, metres above sea."""
     binary, parm = sitl_binary
     vehicle = None
     for attempt in range(2):
         vehicle = _start_sitl(
-            binary, parm, folder / f"try{attempt}", _free_instance(), params or {}
+            binary, parm, folder / f"try{attempt}", _free_instance(), params or {}, home
         )
         if vehicle.proc.poll() is None:
             break
@@ -243,10 +251,11 @@ def fly_drone(
     drone_id: str,
     *extra: str,
     params: dict[str, float] | None = None,
+    home: tuple[float, float, float] = HOME,
 ) -> Vehicle:
-    """A SITL vehicle (with ``params``) and ``dronefleet drone`` on it, online and ready to arm;
-    both stop when ``stack`` closes."""
-    vehicle = stack.enter_context(sitl_vehicle(sitl, folder / drone_id, params))
+    """A SITL vehicle (with ``params``, at ``home``) and ``dronefleet drone`` on it, online and
+    ready to arm; both stop when ``stack`` closes."""
+    vehicle = stack.enter_context(sitl_vehicle(sitl, folder / drone_id, params, home))
     cmd = dronefleet(
         "-v", "drone", "--id", drone_id, "--broker", ground.broker, "--fc", "mavlink",
         "--fc-url", vehicle.url, "--heartbeat-s", "1", *extra,

@@ -8,6 +8,7 @@ import dataclasses
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 from dronefleet.messaging.url import BrokerUrl
 
@@ -77,6 +78,57 @@ def signing_key(key_file: Path | None) -> bytes | None:
     return derive(secret) if secret.strip() else None
 
 
+#: Where :func:`note_given` keeps the options the command line gave: ``{dest: "--option"}``.
+_GIVEN = "_given_options"
+
+
+def note_given(parser: argparse.ArgumentParser) -> None:
+    """Make ``parser`` note each option the command line gives (:func:`given_options`), so an
+    option that does not apply can be refused even when it was given its default value (issue 28,
+    item 6: ``dronefleet drone --fc mavlink --plume ...`` was silently ignored). Call it once every
+    option is added; options added later are not noted."""
+    for action in parser._actions:  # argparse has no public list of them
+        if action.option_strings and not isinstance(
+            action, argparse._HelpAction | argparse._VersionAction
+        ):
+            action.__class__ = _noting(type(action))
+
+
+def given_options(args: argparse.Namespace) -> dict[str, str]:
+    """``{dest: option as typed}`` of the options given on the command line, in their order
+    (the last spelling of one given twice: ``--no-set-autopilot-failsafe``)."""
+    return dict(getattr(args, _GIVEN, {}))
+
+
+_NOTING: dict[type[argparse.Action], type[argparse.Action]] = {}
+
+
+def _noting(cls: type[argparse.Action]) -> type[argparse.Action]:
+    """``cls`` that also notes its option as given (one subclass per action class)."""
+    if cls in _NOTING.values():
+        return cls
+    if cls in _NOTING:
+        return _NOTING[cls]
+
+    class Noting(cls):  # type: ignore[valid-type,misc]
+        def __call__(
+            self,
+            parser: argparse.ArgumentParser,
+            namespace: argparse.Namespace,
+            values: Any,
+            option_string: str | None = None,
+        ) -> None:
+            given = dict(getattr(namespace, _GIVEN, {}))
+            given.pop(self.dest, None)
+            given[self.dest] = option_string or self.option_strings[0]
+            setattr(namespace, _GIVEN, given)
+            super().__call__(parser, namespace, values, option_string)
+
+    Noting.__name__ = Noting.__qualname__ = cls.__name__
+    _NOTING[cls] = Noting
+    return Noting
+
+
 def port_number(text: str) -> int:
     if not text.isdigit() or not 0 < int(text) < 65536:
         raise argparse.ArgumentTypeError(f"a port is 1-65535, not {text!r}")
@@ -126,4 +178,98 @@ def geocoder_url(text: str) -> str:
         raise argparse.ArgumentTypeError(
             f"expected an http(s) URL of a Nominatim-compatible geocoder, got {text!r}"
         )
+    return text
+
+
+def proxy_address(text: str) -> str:
+    """``--trusted-proxy``: a reverse proxy's IP address or network (``10.0.0.0/8``)."""
+    import ipaddress
+
+    try:
+        return str(ipaddress.ip_network(text.strip(), strict=False))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a proxy's IP address or network (e.g. 127.0.0.1 or 10.0.0.0/8), got {text!r}"
+        ) from None
+
+
+def add_trusted_proxy(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--trusted-proxy",
+        type=proxy_address,
+        action="append",
+        default=[],
+        metavar="ADDR",
+        help="a reverse proxy in front of the web server (repeatable): only its X-Forwarded-For "
+        "names the client (the failed-login limit is per client); default none, header ignored",
+    )
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """``--help`` for every command (issue 29): each option that takes a value ends with its
+    default, unless its help already says what happens without it; switches (``--once``) are off
+    unless given. The epilog (each command's examples) keeps its lines."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if not action.option_strings or action.nargs == 0 or action.default is argparse.SUPPRESS:
+            return text
+        if "default" in text.lower():
+            return text
+        shown = shown_default(action.default).replace("%", "%%")  # help strings are %-formatted
+        return f"{text} (default: {shown})" if text else f"(default: {shown})"
+
+
+def shown_default(value: object) -> str:
+    """A default as it would be typed: ``127.0.0.1:8080``, ``2``, ``var/demo``, ``none``."""
+    if value is None or value == []:
+        return "none"
+    if isinstance(value, tuple) and len(value) == 2 and isinstance(value[1], int):
+        return f"{value[0]}:{value[1]}"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def http_bind_failure(exc: OSError, host: str, port: int) -> str | None:
+    """One line for an HTTP address the web server cannot listen on: which one, and the fix
+    (issue 29: it said only "[Errno 98] Address already in use"). None for other errors."""
+    import errno
+
+    where = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+    if exc.errno == errno.EADDRINUSE:
+        return (
+            f"the web server's address {where} is already in use (another dronefleet demo or "
+            f"ground?): stop that one, or choose another address with --http HOST:PORT "
+            f"(--http {host}:0 takes any free port)"
+        )
+    if exc.errno == errno.EADDRNOTAVAIL:
+        return (
+            f"cannot listen on {where}: {host} is not an address of this machine; "
+            "choose another with --http HOST:PORT (e.g. 127.0.0.1:8080)"
+        )
+    if exc.errno == errno.EACCES:
+        return (
+            f"not allowed to listen on {where} (ports below 1024 need root); choose another "
+            "with --http HOST:PORT (e.g. 127.0.0.1:8080)"
+        )
+    return None
+
+
+def store_url(text: str) -> str:
+    """``--store``: ``sqlite:///relative/path``, ``sqlite:////absolute/path`` (SQLAlchemy's
+    convention: ground/telemetry/store.py) or ``influxdb://HOST:PORT/DB``."""
+    from dronefleet.ground.telemetry.store import sqlite_path
+
+    scheme = text.partition("://")[0]
+    try:
+        if scheme == "sqlite":
+            sqlite_path(text)
+        elif scheme not in ("influxdb", "influx"):
+            raise ValueError(
+                f"expected sqlite:///relative/path, sqlite:////absolute/path or "
+                f"influxdb://HOST:PORT/DB, got {text!r}"
+            )
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
     return text

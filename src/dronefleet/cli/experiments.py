@@ -14,10 +14,24 @@ import sys
 
 from dronefleet import virtual_loop
 
+EXAMPLES = """examples:
+  dronefleet experiment survey
+      the seed's survey experiment as fast as the CPU allows, stage by stage
+  dronefleet experiment replacement --baseline seed --json
+      ours and the seed's strategy side by side, as one JSON object
+"""
+
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("experiment", help="run one of the seed's four experiments (chapter 5)")
-    p.add_argument("name", choices=["panic", "survey", "replacement", "collab"])
+    p = sub.add_parser(
+        "experiment", help="run one of the seed's four experiments (chapter 5)", epilog=EXAMPLES
+    )
+    p.add_argument(
+        "name",
+        choices=["panic", "survey", "replacement", "collab"],
+        help="which experiment: panic (a call), survey (an area), replacement (a low battery), "
+        "collab (a reading calls others)",
+    )
     p.add_argument(
         "--speedup",
         type=virtual_loop.speedup_arg,
@@ -31,7 +45,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=["seed"],
         help="also run the seed's own strategy in the same simulator, side by side",
     )
-    p.add_argument("--strategy", choices=["ours", "seed"], default="ours")
+    p.add_argument(
+        "--strategy",
+        choices=["ours", "seed"],
+        default="ours",
+        help="whose way to fly it: ours, or the seed's (stop at every photo, take off then fly, "
+        "equal split)",
+    )
     p.add_argument(
         "--fc",
         choices=["sim", "mavlink", "uavtalk", "mixed"],

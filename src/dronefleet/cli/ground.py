@@ -9,14 +9,29 @@ from pathlib import Path
 
 from dronefleet.cli.args import (
     add_broker_password,
+    add_trusted_proxy,
     broker_url,
     broker_with_password,
     geocoder_url,
+    http_bind_failure,
     port_number,
     positive_speedup,
+    store_url,
     tiles_source,
 )
+from dronefleet.cli.broker_files import (
+    add_owner_argument,
+    broker_owner,
+    check_reachable,
+    make_folder,
+    secret_file,
+)
 from dronefleet.signals import stop_event
+
+
+def state_spec(text: str) -> str | Path:
+    """``--state``: a PostgreSQL URL as given, anything else a file."""
+    return text if text.startswith(("postgresql://", "postgres://")) else Path(text)
 
 
 def _host_port(text: str) -> tuple[str, int]:
@@ -26,34 +41,68 @@ def _host_port(text: str) -> tuple[str, int]:
     return host, port_number(port) if port != "0" else 0
 
 
+GROUND_EXAMPLES = """examples:
+  dronefleet ground --broker mqtt://ground@127.0.0.1:1883 --broker-password-file ground.secret \\
+      --state var/ground.db --store sqlite:///var/telemetry.db --http 0.0.0.0:8080
+      (sqlite:///var/telemetry.db is var/telemetry.db here; sqlite:////var/telemetry.db is
+      /var/telemetry.db)
+"""
+BRIDGE_EXAMPLES = """examples:
+  dronefleet bridge-config --drone-id QUAD_1 --ground ground-host:1883 \\
+      --username QUAD_1 --password-file QUAD_1.secret > bridge.conf
+"""
+
+
 def register(sub: argparse._SubParsersAction) -> None:
-    g = sub.add_parser("ground", help="run the ground services (identifier, manager, telemetry)")
+    g = sub.add_parser(
+        "ground",
+        help="run the ground services (identifier, manager, telemetry)",
+        epilog=GROUND_EXAMPLES,
+    )
     g.add_argument(
         "--broker", type=broker_url, default="mqtt://127.0.0.1:1883", help="ground broker URL"
     )
     add_broker_password(g)
     g.add_argument(
         "--store",
+        type=store_url,
         default="sqlite:///dronefleet-telemetry.db",
-        help="telemetry store: sqlite:///PATH or influxdb://HOST:PORT/DB",
+        help="telemetry store: sqlite:///RELATIVE/PATH (to the current folder), "
+        "sqlite:////ABSOLUTE/PATH (four slashes, as SQLAlchemy) or influxdb://HOST:PORT/DB",
     )
-    g.add_argument("--state", type=Path, default=Path("dronefleet-ground.db"), help="state DB")
-    g.add_argument("--http", type=_host_port, default=("127.0.0.1", 8080), help="HOST:PORT")
+    g.add_argument(
+        "--state",
+        type=state_spec,
+        default="dronefleet-ground.db",
+        help="the ground's state: an SQLite file, or postgresql://USER@HOST:PORT/DB shared by "
+        "several ground replicas (docs/deployment.md)",
+    )
+    g.add_argument(
+        "--http",
+        type=_host_port,
+        default="127.0.0.1:8080",
+        metavar="HOST:PORT",
+        help="where the web UI and REST API listen (port 0: any free port)",
+    )
     g.add_argument("--token", help="operator API token to accept (default: one is made)")
-    g.add_argument("--admin-token", help="admin API token to accept")
+    g.add_argument(
+        "--admin-token", help="admin API token to accept (default: one is made on the first start)"
+    )
     g.add_argument("--command-timeout", type=float, default=30.0, help="seconds per command")
     g.add_argument(
         "--planning-budget",
         type=positive_speedup,  # a positive, finite number of seconds
         default=10.0,
-        help="seconds a mission may take to plan (then 422 'too complex')",
+        help="CPU seconds a mission may take to plan (then 422 'too complex')",
     )
     g.add_argument(
         "--lost-after",
         type=positive_speedup,  # a positive, finite number of seconds
         default=2.0,
-        help="wall seconds at least without a heartbeat before a drone is lost (and its work "
-        "taken over, or its mission stalled): 3 heartbeat intervals, never less than this",
+        help="seconds at least without a heartbeat, counted in the ground's own awake time (not "
+        "while it was stalled or its broker link down), before a drone is lost: 3 of the drone's "
+        "declared heartbeat intervals, never less than this; its work is taken over only after "
+        "as long again, and not if it is heard before the replacement starts",
     )
     g.add_argument(
         "--tiles",
@@ -72,12 +121,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         type=Path,
         help="where the drones' pictures are kept per mission (default: photos/ beside --state)",
     )
+    add_trusted_proxy(g)
     g.set_defaults(func=run_ground)
 
     b = sub.add_parser(
-        "bridge-config", help="print a drone's Mosquitto bridge config (Listing 4.3)"
+        "bridge-config",
+        help="print a drone's Mosquitto bridge config (Listing 4.3)",
+        epilog=BRIDGE_EXAMPLES,
     )
-    b.add_argument("--drone-id", required=True)
+    b.add_argument("--drone-id", required=True, help="the drone whose broker is bridged")
     b.add_argument("--ground", type=_host_port, required=True, help="ground broker HOST:PORT")
     b.add_argument("--username", help="the drone's broker user (dronefleet credentials add-drone)")
     b.add_argument("--password-file", type=Path, help="file holding its password")
@@ -96,6 +148,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="with --listener: write the drone broker's password and ACL files here (0600); "
         "the drone's parts log in as --username with the password of --password-file",
     )
+    add_owner_argument(b)
     b.set_defaults(func=run_bridge_config)
 
 
@@ -110,13 +163,14 @@ def _drone_broker_users(args: argparse.Namespace) -> tuple[str, str] | None:
     if args.username not in (None, args.drone_id):
         raise ValueError("on the drone's own broker the user is the drone: --username DRONE_ID")
     passwords, acl = drone_broker_files(args.drone_id, args.password_file.read_text().strip())
-    args.local_dir.mkdir(parents=True, exist_ok=True)
-    paths = (args.local_dir / "passwords", args.local_dir / "acl")
+    local_dir = args.local_dir.resolve()
+    owner = broker_owner(args.owner)  # Mosquitto reads them as its own user (cli/broker_files.py)
+    check_reachable(local_dir, owner)
+    make_folder(local_dir)
+    paths = (local_dir / "passwords", local_dir / "acl")
     for path, text in zip(paths, (passwords, acl), strict=True):
-        path.touch(mode=0o600, exist_ok=True)
-        path.chmod(0o600)
-        path.write_text(text)
-    return str(paths[0].resolve()), str(paths[1].resolve())
+        secret_file(path, text, owner)
+    return str(paths[0]), str(paths[1])
 
 
 def run_bridge_config(args: argparse.Namespace) -> int:
@@ -143,6 +197,9 @@ def run_bridge_config(args: argparse.Namespace) -> int:
 
 
 def run_ground(args: argparse.Namespace) -> int:
+    from dronefleet.owner_only import private_umask
+
+    private_umask()  # databases (and their -wal/-shm), photos: the owner's only (issue 25)
     try:
         args.broker = broker_with_password(args.broker, args.broker_password_file)
     except (OSError, ValueError) as exc:
@@ -152,7 +209,7 @@ def run_ground(args: argparse.Namespace) -> int:
 
 
 async def _ground(args: argparse.Namespace) -> int:
-    from dronefleet.errors import InvalidInput
+    from dronefleet.errors import InvalidInput, Unavailable
     from dronefleet.ground.presence import GroundAlreadyRunning
     from dronefleet.ground.services import GroundServices
     from dronefleet.messaging.client import BrokerUnavailable
@@ -171,11 +228,15 @@ async def _ground(args: argparse.Namespace) -> int:
         tiles=args.tiles,
         geocoder=args.geocoder,
         photo_dir=args.photo_dir,
+        trusted_proxies=args.trusted_proxy,
     )
     try:
         await services.start()
-    except (GroundAlreadyRunning, BrokerUnavailable, OSError, ValueError, InvalidInput) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+    except (
+        GroundAlreadyRunning, BrokerUnavailable, OSError, ValueError, InvalidInput, Unavailable
+    ) as exc:  # fmt: skip
+        bind = http_bind_failure(exc, *args.http) if isinstance(exc, OSError) else None
+        reason = bind or (exc.strerror if isinstance(exc, OSError) and exc.strerror else exc)
         print(f"dronefleet ground: {reason}", file=sys.stderr)
         return 2
     print(

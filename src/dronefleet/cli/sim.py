@@ -14,7 +14,14 @@ import contextlib
 import sys
 from pathlib import Path
 
-from dronefleet.cli.args import add_signing_key, port_number, positive_speedup, signing_key
+from dronefleet.cli.args import (
+    add_signing_key,
+    given_options,
+    note_given,
+    port_number,
+    positive_speedup,
+    signing_key,
+)
 from dronefleet.cli.drone import DEFAULT_HOME, parse_lla, parse_plume
 from dronefleet.signals import stop_event
 
@@ -28,18 +35,42 @@ def parse_udp(text: str) -> tuple[str, int]:
     return host, port_number(port)
 
 
+#: The options only one protocol uses (issue 28, item 6): given with the other, the command
+#: refuses them (one line, exit 2) instead of ignoring them. The rest apply to both.
+PROTOCOL_OPTIONS: dict[str, tuple[str, str]] = {
+    "mavlink": ("mavlink", "the MAVLink ports"),
+    "sysid_base": ("mavlink", "MAVLink system ids"),
+    "mavlink_signing_key_file": ("mavlink", "MAVLink 2 signing"),
+    "plume": (
+        "mavlink",
+        "the CO2 readings it sends as NAMED_VALUE_FLOAT; over UAVTalk give the drone "
+        "dronefleet drone --fc uavtalk --plume",
+    ),
+    "pictures": ("mavlink", "the camera served over MAVLink"),
+    "id_prefix": ("uavtalk", "the vehicles' UAVTalk ids"),
+}
+
+
+EXAMPLES = """examples:
+  dronefleet sim --count 3 --mavlink udp:127.0.0.1:14550 --speedup 5
+      three vehicles on UDP ports 14550-14552 (dronefleet drone --fc mavlink, or any GCS)
+"""
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "sim", help="serve simulated vehicles over MAVLink (ArduPilot Copter compatible)"
+        "sim",
+        help="serve simulated vehicles over MAVLink (ArduPilot Copter compatible)",
+        epilog=EXAMPLES,
     )
     p.add_argument("--count", type=int, default=1, help="how many vehicles to simulate")
     p.add_argument(
         "--mavlink",
         type=parse_udp,
-        default=parse_udp("udp:127.0.0.1:14550"),
+        default="udp:127.0.0.1:14550",
         help="udp:HOST:PORT of the first vehicle; vehicle i listens on PORT+i",
     )
-    p.add_argument("--home", type=parse_lla, default=parse_lla(DEFAULT_HOME), help="LAT,LON,ALT")
+    p.add_argument("--home", type=parse_lla, default=DEFAULT_HOME, help="LAT,LON,ALT")
     p.add_argument("--spacing-m", type=float, default=15.0, help="distance between homes")
     p.add_argument(
         "--speedup", type=positive_speedup, default=1.0, help="vehicle seconds per wall second"
@@ -64,7 +95,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     from dronefleet.sim.uavtalk.cli import add_arguments as uavtalk_arguments
 
     uavtalk_arguments(p)  # adds what UAVTalk needs beyond the options above (--id-prefix)
+    note_given(p)
     p.set_defaults(func=_run)
+
+
+def inapplicable(args: argparse.Namespace) -> str | None:
+    """Why an option given does not apply to the protocol served (all such, one line), or None."""
+    protocol = "uavtalk" if args.uavtalk else "mavlink"
+    wrong = [
+        f"{option} is for {PROTOCOL_OPTIONS[dest][0]} only ({PROTOCOL_OPTIONS[dest][1]})"
+        for dest, option in given_options(args).items()
+        if PROTOCOL_OPTIONS.get(dest, (protocol,))[0] != protocol
+    ]
+    if not wrong:
+        return None
+    served = "--uavtalk" if args.uavtalk else "MAVLink (no --uavtalk)"
+    return f"not when serving {served}: {'; '.join(wrong)}"
 
 
 def _system_id(text: str) -> int:
@@ -74,6 +120,9 @@ def _system_id(text: str) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from dronefleet.owner_only import private_umask
+
+    private_umask()  # the simulated cameras' pictures: the owner's only (issue 25)
     if args.count < 1:
         print("dronefleet sim: --count must be at least 1", file=sys.stderr)
         return 2
@@ -82,6 +131,9 @@ def _run(args: argparse.Namespace) -> int:
         return 2
     if args.speedup <= 0:
         print("dronefleet sim: --speedup must be positive", file=sys.stderr)
+        return 2
+    if (why := inapplicable(args)) is not None:
+        print(f"dronefleet sim: {why}", file=sys.stderr)
         return 2
     if args.uavtalk:
         from dronefleet.sim.uavtalk.cli import serve as serve_uavtalk

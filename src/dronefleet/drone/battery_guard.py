@@ -8,6 +8,13 @@ BATT_FS_CRT_ACT, Land): below ``rtl_pct`` it stops its mission and returns home;
 ``land_pct`` it stops whatever it does and lands where it is. Each level acts once per flight; a
 drone already coming home (its own RTL, or the ground's) or landing is left to it, except that
 the land level still lands a drone that is only returning.
+
+A landing decided for the battery is final (issue 26): until the drone is on the ground its
+Navigation Processor flies nothing but a landing (``NavigationProcessor.must_land``), so a return
+order queued for it (the ground's recovery leg, kept by the broker while the drone was away) or
+sent later is refused with the reason (a mission fails at that step, a direct command answers
+the refusal). Measured on SITL before: such an order took a drone at 0 % back into the air for
+home.
 """
 
 from __future__ import annotations
@@ -42,6 +49,7 @@ class BatteryGuard:
         state = self.worker.controller.fc.state()
         if not state.in_air:
             self.acted.clear()  # on the ground (a new battery, a new flight): armed again
+            self.worker.controller.navigation.must_land = None
             return
         if self._task is not None and not self._task.done():
             return  # acting already
@@ -63,8 +71,10 @@ class BatteryGuard:
         what = "landing here" if level == "land" else "returning home"
         why = f"battery at {pct:.1f} % (below {getattr(self, f'{level}_pct'):g} %): {what}"
         log.warning("drone %s: %s", self.worker.controller.drone_id, why)
-        await self.worker.abandon(why)
         navigation = self.worker.controller.navigation
+        if level == "land":
+            navigation.must_land = f"the drone is landing for its battery ({why})"
+        await self.worker.abandon(why)
         if level == "land":
             await navigation.land()
         else:

@@ -36,6 +36,10 @@ class CameraTrigger:
         self._task: asyncio.Task[None] | None = None
         self._travelled = 0.0
         self._last: Any = None
+        # Held while a picture is being taken: stopping waits for it instead of cancelling it
+        # half way (the camera has taken it and kept the file; a cancelled wait for its answer
+        # left it out of the list, and the ground's gallery without it).
+        self._shooting = asyncio.Lock()
 
     @property
     def active(self) -> bool:
@@ -68,9 +72,10 @@ class CameraTrigger:
 
     async def stop(self) -> None:
         if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await self._task
+            async with self._shooting:  # a picture being taken is finished (and listed) first
+                self._task.cancel()
+                with contextlib.suppress(asyncio.CancelledError, Exception):
+                    await self._task
             self._task = None
             # The loop polls; a picture that fell due since its last look is still taken.
             if self._advance() >= self.distance_m > 0:
@@ -96,6 +101,7 @@ class CameraTrigger:
         self._advance()
         while True:
             await self.fc.clock.sleep(self.poll_s)
-            if self._advance() >= distance_m:
-                self._travelled -= distance_m
-                await self._shoot()
+            async with self._shooting:  # cancelled while waiting for it: nothing has changed
+                if self._advance() >= distance_m:
+                    self._travelled -= distance_m
+                    await self._shoot()

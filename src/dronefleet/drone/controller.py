@@ -19,7 +19,14 @@ from pydantic import ValidationError
 from dronefleet.clock import monotonic
 from dronefleet.drone.arming import ArmingSwitch
 from dronefleet.drone.camera_trigger import CameraTrigger
+from dronefleet.drone.command_watch import CommandWatch, watched_kind
 from dronefleet.drone.config import DroneConfig
+from dronefleet.drone.direct_commands import (
+    MissionBusy,
+    MissionGate,
+    mind_the_mission,
+    parse_with_force,
+)
 from dronefleet.drone.draw import FlightDraw
 from dronefleet.drone.navigation import NavigationProcessor, Tolerance
 from dronefleet.drone.state import flight_state, position_of
@@ -27,7 +34,8 @@ from dronefleet.errors import Failed
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient, BrokerUnavailable
 from dronefleet.messaging.codec import MessageError, decode, decode_object
-from dronefleet.messaging.commands import Command, CommandResponse, parse_control
+from dronefleet.messaging.commands import Command, CommandResponse, SelectableMode
+from dronefleet.messaging.common import wall_time
 from dronefleet.messaging.gear import GearQuery, GearRequest
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
@@ -36,6 +44,7 @@ from dronefleet.messaging.status import (
     FlightParams,
     GpsStatus,
     Heartbeat,
+    LinkFailsafe,
     Telemetry,
     WindStatus,
 )
@@ -75,11 +84,21 @@ class DroneController:
         self.camera_trigger = CameraTrigger(fc, lambda: self.gear(GearQuery.CAPTURE))
         self.mission_id: str | None = None
         self.step_index: int | None = None
+        # The Mission Worker, which says whether a mission flies the vehicle: direct commands
+        # that would fight it are refused, safety ones pause it (drone/direct_commands.py).
+        self.missions: MissionGate | None = None
         self._tasks: list[asyncio.Task[None]] = []
         self._telemetry_task: asyncio.Task[None] | None = None
         self._sample_listeners: list[SampleListener] = []
         self.draw = FlightDraw()  # measured in flight, sampled with every heartbeat
         self._events: list[Any] = []  # listeners of local events (the Logger)
+        # A direct move is reported again when it has ended (drone/command_watch.py).
+        self.watch = CommandWatch(self.navigation, self._report_done)
+        # A heartbeat goes at once when the flight state or the mode changes (landed, disarmed,
+        # switched to RTL), not up to an interval later: the ground's picture of the vehicle
+        # (REST, the fleet page, the planner's idle check) follows within one telemetry sample.
+        self._told: tuple[str, str] | None = None
+        self._beat_now = asyncio.Event()
 
     def topic(self, channel: Channel, direction: Direction = Direction.OUT) -> str:
         return topics.topic(self.drone_id, channel, direction)
@@ -99,6 +118,7 @@ class DroneController:
                 await task
         self._tasks.clear()
         self._telemetry_task = None
+        await self.watch.close()
         await self.camera_trigger.stop()
 
     def add_event_listener(self, listener: Any) -> None:
@@ -125,7 +145,7 @@ class DroneController:
     async def _on_control(self, _topic: str, payload: bytes) -> None:
         request_id, command = _ids_of(payload)
         try:
-            request = parse_control(decode_object(payload))
+            request, forced = parse_with_force(decode_object(payload))
         except MessageError as exc:
             _throttle.log(
                 logging.INFO, "control", "%s: rejected control message: %s", self.drone_id, exc
@@ -133,14 +153,41 @@ class DroneController:
             await self._respond(request_id, command, ok=False, error=str(exc))
             return
         try:
+            await mind_the_mission(self.missions, self.drone_id, request, forced)
             result = await self.execute(request)
+        except MissionBusy as exc:
+            self._event("refused", command=str(request.command), reason=str(exc))
+            await self._respond(
+                request_id,
+                command,
+                ok=False,
+                error=str(exc),
+                result={"mission": exc.mission.fields()},
+            )
         except (CommandError, FcError) as exc:
             await self._respond(request_id, command, ok=False, error=str(exc))
         except Exception as exc:  # an unexpected fault must not take the controller down
             log.exception("%s: %s failed", self.drone_id, command)
             await self._respond(request_id, command, ok=False, error=f"internal error: {exc}")
         else:
-            await self._respond(request_id, command, ok=True, result=result)
+            kind = watched_kind(request)
+            if kind is None or not isinstance(request_id, str):
+                await self._respond(request_id, command, ok=True, result=result, done=True)
+                return
+            await self._respond(request_id, command, ok=True, result=result, done=False)
+            self.watch.watch(request_id, str(command), kind)
+
+    async def _report_done(
+        self, request_id: str, command: str, ok: bool, outcome: str, result: dict[str, Any]
+    ) -> None:
+        """A watched move has ended: the same request id again, with how it ended."""
+        error = None if ok else f"{command} {outcome}"
+        try:
+            await self._respond(
+                request_id, command, ok=ok, done=True, outcome=outcome, result=result, error=error
+            )
+        except Exception:
+            log.exception("%s: the end of %s was not reported", self.drone_id, command)
 
     async def _respond(self, request_id: Any, command: Any, **fields: Any) -> None:
         response = CommandResponse(
@@ -163,26 +210,21 @@ class DroneController:
             case Command.DISARM:
                 return await self.arming.disarm(force=request.force)
             case Command.TAKEOFF:
-                return _target(await nav.takeoff(request.value))
+                return _target(self.fc.home(), await nav.takeoff(request.value))
             case Command.LAND:
                 await nav.land()
                 return {"landing": True}
             case Command.RTL:
-                where = await nav.return_to_launch(rally=request.rally)
-                home = self.fc.home()
-                return {
-                    "returning": True,
-                    "home": {"lat": home.lat, "lon": home.lon},
-                    "lands_at": {"lat": where.lat, "lon": where.lon},  # a rally point, or home
-                }
+                return await self._return_to_launch(rally=request.rally)
+            case Command.MODE:
+                return await self._set_mode(SelectableMode(request.value))
             case Command.NAVIGATE:
-                return _target(await nav.navigate(request.lat, request.lon, request.altitude_delta))
-            case Command.CHANGE_N:
-                return _target(await nav.change(north_m=request.value))
-            case Command.CHANGE_E:
-                return _target(await nav.change(east_m=request.value))
-            case Command.ALTITUDE:
-                return _target(await nav.change(up_m=request.value))
+                return _target(
+                    self.fc.home(),
+                    await nav.navigate(request.lat, request.lon, request.altitude_delta),
+                )
+            case Command.CHANGE_N | Command.CHANGE_E | Command.ALTITUDE:
+                return await self._change(request)
             case Command.OBJREQUEST:
                 return {
                     "object": request.value,
@@ -200,6 +242,44 @@ class DroneController:
                 self._restart_telemetry()
                 return {"telemetry": "rebuilt"}
         raise CommandError(f"command {request.command!r} is not handled by the Drone Controller")
+
+    async def _change(self, request: Any) -> dict[str, Any]:
+        """changeN, changeE, altitude: a move relative to the current goal."""
+        axis = {Command.CHANGE_N: "north_m", Command.CHANGE_E: "east_m", Command.ALTITUDE: "up_m"}
+        target = await self.navigation.change(**{axis[request.command]: request.value})
+        return _target(self.fc.home(), target)
+
+    async def _return_to_launch(self, *, rally: bool) -> dict[str, Any]:
+        where = await self.navigation.return_to_launch(rally=rally)
+        home = self.fc.home()
+        return {
+            "returning": True,
+            "home": {"lat": home.lat, "lon": home.lon},
+            "lands_at": {"lat": where.lat, "lon": where.lon},  # a rally point, or home
+        }
+
+    async def _set_mode(self, mode: SelectableMode) -> dict[str, Any]:
+        """The operator's mode selector: each mode as the Navigation Processor flies it."""
+        nav = self.navigation
+        match mode:
+            case SelectableMode.HOLD:
+                return {
+                    "mode": mode.value,
+                    "holding_at": _target(self.fc.home(), await nav.hold())["target"],
+                }
+            case SelectableMode.LAND:
+                await nav.land()
+                return {"mode": mode.value, "landing": True}
+            case SelectableMode.RTL:
+                return {"mode": mode.value, **await self._return_to_launch(rally=False)}
+        if not self.fc.state().in_air:
+            raise CommandError("GUIDED flies on to a goal in the air: take off first")
+        goal = nav.goal if nav.goal is not None and not nav.landing else self.fc.position()
+        height_m = max(goal.alt_m - self.fc.home().alt_m, 0.0)
+        return {
+            "mode": mode.value,
+            **_target(self.fc.home(), await nav.navigate(goal.lat, goal.lon, height_m)),
+        }
 
     async def gear(self, query: GearQuery, sensor: str | None = None) -> dict[str, Any]:
         """Ask the Gear Manager over the broker (gear/in → gear/out)."""
@@ -222,6 +302,7 @@ class DroneController:
     def heartbeat(self) -> Heartbeat:
         battery = self.fc.battery()
         state = self.fc.state()
+        self._told = (flight_state(state), str(state.mode))
         return Heartbeat(
             drone_id=self.drone_id,
             vehicle_time_s=round(self.clock.now(), 3),
@@ -256,6 +337,13 @@ class DroneController:
             status["wind"] = WindStatus(
                 speed_mps=round(wind.speed_mps, 2), from_deg=round(wind.from_deg % 360.0, 1)
             )
+        # What the autopilot does if this software dies (issue 26): checked before a flight.
+        if (failsafe := getattr(self.fc, "link_failsafe", None)) is not None:
+            status["link_failsafe"] = LinkFailsafe(
+                action=failsafe.action,
+                timeout_s=failsafe.timeout_s,
+                set_by_drone=failsafe.set_by_drone,
+            )
         return status
 
     def _flight_params(self, battery: Any, in_air: bool) -> FlightParams | None:
@@ -268,8 +356,13 @@ class DroneController:
             params["flight_current_a"] = round(mean_a, 2)
         try:
             return FlightParams(**params) if params else None
-        except ValidationError:
-            return None
+        except ValidationError as exc:  # a figure out of range is left out, not all of them
+            bad = {str(e["loc"][0]) for e in exc.errors() if e.get("loc")}
+            kept = {k: v for k, v in params.items() if k not in bad}
+            try:
+                return FlightParams(**kept) if kept else None
+            except ValidationError:
+                return None
 
     async def _heartbeats(self) -> None:
         topic_name = self.topic(Channel.HEARTBEATS)
@@ -280,7 +373,28 @@ class DroneController:
                 )
             except Exception:
                 log.exception("%s: heartbeat failed", self.drone_id)
-            await self.clock.sleep(self.config.heartbeat_interval_s)
+            await self._until_next_beat()
+
+    async def _until_next_beat(self) -> None:
+        """One heartbeat interval (vehicle seconds), or less when the state changes meanwhile.
+        Extra beats do not disturb the ground's liveness: it reads the drone's rate from the
+        beats' own stamps, never from how often they come (ground/fleet.py)."""
+        self._beat_now.clear()
+        interval = asyncio.ensure_future(self.clock.sleep(self.config.heartbeat_interval_s))
+        changed = asyncio.ensure_future(self._beat_now.wait())
+        try:
+            await asyncio.wait({interval, changed}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for waiter in (interval, changed):
+                waiter.cancel()
+
+    def _note_state(self) -> None:
+        """Wake the heartbeat loop when the flight state or the mode differs from the last beat."""
+        if self._told is None:
+            return
+        state = self.fc.state()
+        if (flight_state(state), str(state.mode)) != self._told:
+            self._beat_now.set()
 
     async def _telemetry(self) -> None:
         topic_name = self.topic(Channel.TELEMETRY)
@@ -288,14 +402,27 @@ class DroneController:
         last = 0.0
         async for sample in self.fc.telemetry():
             await self._tell_listeners(sample)
+            self._note_state()
             now = monotonic()
             if now - last < min_gap_s:
                 continue
             last = now
             fields = {**sample, **self._goal_fields()}
-            message = Telemetry(
-                drone_id=self.drone_id, vehicle_time_s=round(self.clock.now(), 3), fields=fields
-            )
+            vehicle_time_s = round(self.clock.now(), 3)
+            message: Telemetry | dict[str, Any]
+            if all(type(value) is float for value in fields.values()):
+                # What Telemetry(...) would send, byte for byte, without validating per sample
+                # what is already valid (the drone id was checked when the controller was made).
+                message = {
+                    "drone_id": self.drone_id,
+                    "timestamp": wall_time(),
+                    "vehicle_time_s": vehicle_time_s,
+                    "fields": fields,
+                }
+            else:
+                message = Telemetry(
+                    drone_id=self.drone_id, vehicle_time_s=vehicle_time_s, fields=fields
+                )
             await self.client.publish(topic_name, message, qos=QOS_STREAM, disposable=True)
 
     def _goal_fields(self) -> dict[str, float]:
@@ -312,8 +439,17 @@ class DroneController:
         self._telemetry_task = asyncio.create_task(self._telemetry(), name="telemetry")
 
 
-def _target(target: Any) -> dict[str, Any]:
-    return {"target": {"lat": target.lat, "lon": target.lon, "alt_m": round(target.alt_m, 3)}}
+def _target(home: Any, target: Any) -> dict[str, Any]:
+    """A position target: ``alt_m`` above mean sea level, as the autopilot flies it, and
+    ``above_home_m``, the height an operator asked for (issue 29: "alt_m: 20" read as 20 m up)."""
+    return {
+        "target": {
+            "lat": target.lat,
+            "lon": target.lon,
+            "alt_m": round(target.alt_m, 3),
+            "above_home_m": round(target.alt_m - home.alt_m, 3),
+        }
+    }
 
 
 def _ids_of(payload: bytes) -> tuple[Any, Any]:

@@ -8,6 +8,7 @@ same host add events that never reach the broker (arming switch interactions, de
 
 Like the seed's, it never publishes. Each line is flushed as it is written, so a crash of the
 process loses nothing already received (an OS crash may lose what the OS had not yet written).
+The logs are the owner's only: files 0600, folders made 0700 (issue 25).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import orjson
 from dronefleet.clock import timestamp_s
 from dronefleet.messaging import topics
 from dronefleet.messaging.client import QOS_COMMAND, BrokerClient
+from dronefleet.owner_only import open_private
 
 log = logging.getLogger(__name__)
 
@@ -108,10 +110,9 @@ class DroneLogger:
             self._file = None
 
     def _open(self) -> None:
-        self.log_dir.mkdir(parents=True, exist_ok=True)
         if self._file is None:
-            self._file = open(self.path, "ab")  # noqa: SIM115 - kept open across writes
-            self._size = self._file.tell()
+            self._file = open_private(self.path, append=True)  # kept open across writes
+            self._size = self._file.seek(0, os.SEEK_END)
 
     def _rotate(self) -> None:
         if self._file is not None:

@@ -5,6 +5,9 @@ decoded and checked before anything changes: a bad mission is rejected with the 
 running one carries on. A good one replaces whatever was running. Each step done is reported on
 ``mission/out`` with its index, command, position, duration (vehicle seconds) and the decode time.
 On a MAVLink autopilot a mission may be flown on board instead (:mod:`dronefleet.drone.onboard`).
+Elsewhere: pausing and resuming a mission (drone/mission_pause.py), building and replaying the
+reports (drone/progress_reports.py), the steps the Drone Controller does not run itself
+(drone/step_actions.py).
 """
 
 from __future__ import annotations
@@ -17,17 +20,16 @@ from collections import deque
 from typing import Any
 
 from dronefleet.clock import timestamp_s
-from dronefleet.drone import onboard, step_actions
+from dronefleet.drone import mission_pause, onboard, progress_reports, safe_end, step_actions
 from dronefleet.drone.autopilot_fence import AutopilotFence
 from dronefleet.drone.controller import CommandError, DroneController
+from dronefleet.drone.direct_commands import FlyingMission
 from dronefleet.drone.outbox import Outbox
 from dronefleet.drone.report_history import ReportHistory
-from dronefleet.drone.state import position_of
 from dronefleet.drone.step_actions import StepFailed
-from dronefleet.drone.takeover import OPERATOR, POLL_S, Paused, Takeover
+from dronefleet.drone.takeover import DIRECT, OPERATOR, POLL_S, Paused, Takeover
 from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError, decode_object
-from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.common import validate
 from dronefleet.messaging.fence import Geofence, RallyPoint
 from dronefleet.messaging.log_throttle import LogThrottle
@@ -44,6 +46,9 @@ from dronefleet.tasks import cancel_and_wait
 from dronefleet.vehicle.base import FcError
 
 log = logging.getLogger(__name__)
+#: Longest a direct command waits for the mission it interrupts to pause (wall seconds): the
+#: mission looks every POLL_S vehicle seconds.
+YIELD_WAIT_S = 2.0
 _throttle = LogThrottle(
     log
 )  # one line per kind per 10 s: junk on the broker must not flood the log
@@ -67,14 +72,15 @@ class MissionWorker:
         # missed some; on disk too with a state folder (drone/report_history.py).
         state_dir = self.config.state_dir
         self.reports = ReportHistory(self.clock, state_dir / "reports.db" if state_dir else None)
-        self._steps: list[tuple[int, Any]] = []  # the mission's steps, with their indices
-        self._done: set[int] = set()  # indices of its steps reported done
+        self.steps: list[tuple[int, Any]] = []  # the mission's steps, with their indices
+        self.steps_done: set[int] = set()  # indices of its steps reported done
         self.paused: Paused | None = None  # a mission someone else took the vehicle from
         self._asked: Takeover | None = None  # a pause asked for, for the running mission
         self.fence: Geofence | None = None  # the running mission's geofence
         # The fence and rally points a MAVLink autopilot gets before a mission flies.
         self.autopilot_fence = AutopilotFence(controller.fc)
         self._for_autopilot: tuple[Geofence | None, list[RallyPoint]] | None = None
+        controller.missions = self  # direct commands ask who flies the vehicle
 
     async def start(self) -> None:
         await self.client.subscribe(
@@ -91,6 +97,27 @@ class MissionWorker:
     def running(self) -> bool:
         return self._task is not None and not self._task.done()
 
+    def flying(self) -> FlyingMission | None:
+        """The mission flying the vehicle now (not paused, not ended), for direct commands."""
+        if not self.running or self.mission_id is None:
+            return None
+        last = self.steps[-1][0] if self.steps else 0
+        return FlyingMission(self.mission_id, self.controller.step_index, last)
+
+    async def yield_to(self, command: str, note: str) -> None:
+        """Pause the flying mission for a direct ``command`` obeyed now (drone/
+        direct_commands.py): reported ``paused`` with the command and ``note`` (who sent it),
+        without holding (the command flies the vehicle next); the ground may resume it."""
+        async with self._lock:
+            task = self._task
+            if task is None or task.done():
+                return
+            self._asked = Takeover(command, DIRECT, note, round(self.clock.now(), 3))
+            done, _ = await asyncio.wait({task}, timeout=YIELD_WAIT_S)
+            if not done:
+                what = "%s: mission %s did not pause for %s within %g s"
+                log.warning(what, self.controller.drone_id, self.mission_id, command, YIELD_WAIT_S)
+
     # -- mission/in --------------------------------------------------------------------------
     async def _on_mission(self, _topic: str, payload: bytes) -> None:
         started = time.perf_counter()
@@ -102,7 +129,7 @@ class MissionWorker:
             _throttle.log(
                 logging.INFO, "mission", "%s: mission rejected: %s", self.controller.drone_id, exc
             )
-            await self._report(
+            await self.report(
                 ProgressEvent.REJECTED,
                 mission_id or "",
                 request_id=request_id,
@@ -128,7 +155,7 @@ class MissionWorker:
                 if self._in_air():
                     await self.controller.navigation.hold()
                 if stopped is None:
-                    await self._report(
+                    await self.report(
                         ProgressEvent.STOPPED,
                         request.mission_id,
                         request_id=request_id,
@@ -138,14 +165,14 @@ class MissionWorker:
             mission_id = request.mission_id or f"m-{int(timestamp_s() * 1000)}"
             await self._cancel_current(reason=f"replaced by mission {mission_id}")
             self.queue = deque(enumerate(steps, start=request.start_index))
-            self._steps, self._done, self._asked = list(self.queue), set(), None
+            self.steps, self.steps_done, self._asked = list(self.queue), set(), None
             self.fence = request.fence  # kept to in flight (drone/fence_guard.py)
             navigation = self.controller.navigation  # where an early return may land instead
             navigation.rally_points, navigation.fence = list(request.rally), request.fence
             self._for_autopilot = (request.fence, list(request.rally))
             self.mission_id = mission_id
             self.controller.mission_id = mission_id
-            await self._report(
+            await self.report(
                 ProgressEvent.ACCEPTED,
                 mission_id,
                 request_id=request_id,
@@ -167,7 +194,7 @@ class MissionWorker:
         task, mission_id = self._task, self.mission_id
         paused, self.paused = self.paused, None
         if paused is not None:  # nothing runs: the vehicle is someone else's until now
-            await self._report(
+            await self.report(
                 ProgressEvent.STOPPED,
                 paused.mission_id,
                 request_id=request_id,
@@ -178,7 +205,7 @@ class MissionWorker:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
-            await self._report(
+            await self.report(
                 ProgressEvent.STOPPED,
                 mission_id or "",
                 request_id=request_id,
@@ -202,12 +229,13 @@ class MissionWorker:
         modes = self.controller.navigation.modes
         try:
             while not flying.done():
-                taken, self._asked = self._asked or modes.takeover(), None
+                taken = self._asked or modes.takeover() or mission_pause.link_lost(self.controller)
+                self._asked = None
                 if taken is not None:
                     await cancel_and_wait(flying)
                     if taken.by == OPERATOR and self._in_air():
                         await self.controller.navigation.hold()
-                    await self._pause(mission_id, count, start_index, taken)
+                    await mission_pause.pause(self, mission_id, count, start_index, taken)
                     return
                 tick = asyncio.ensure_future(self.clock.sleep(POLL_S))
                 await asyncio.wait({flying, tick}, return_when=asyncio.FIRST_COMPLETED)
@@ -216,60 +244,12 @@ class MissionWorker:
         finally:
             await cancel_and_wait(flying)
 
-    async def _pause(self, mission_id: str, count: int, start_index: int, taken: Takeover) -> None:
-        await self.controller.camera_trigger.stop()
-        paused = Paused(mission_id, count, start_index, self._steps, set(self._done), taken)
-        self.paused = paused
-        left = paused.left()
-        log.warning("%s: mission %s %s", self.controller.drone_id, mission_id, taken.describe())
-        await self._report(
-            ProgressEvent.PAUSED,
-            mission_id,
-            step_index=left[0][0] if left else None,
-            step_count=count,
-            error=taken.describe(),
-            result=taken.fields(),
-        )
-
     async def _resume(self, mission_id: str, request_id: str | None) -> None:
-        """Fly on with a paused mission: take the vehicle back (on to its goal), then the steps
-        not done, from the companion computer. Refused (still paused) on the ground."""
-        paused = self.paused
-        if paused is None or paused.mission_id != mission_id:
-            await self._report(
-                ProgressEvent.REJECTED,
-                mission_id,
-                request_id=request_id,
-                ok=False,
-                error=f"mission {mission_id!r} is not paused on this drone",
-            )
+        """Fly on with the paused mission ``mission_id`` (drone/mission_pause.py)."""
+        resumed = await mission_pause.resume(self, mission_id, request_id)
+        if resumed is None:
             return
-        state = self.controller.fc.state()
-        left, why, to_goal = paused.resume_plan(grounded=not (state.armed and state.in_air))
-        if why is None and to_goal:
-            try:
-                await self.controller.navigation.resume()
-            except (CommandError, FcError) as exc:
-                why = str(exc)
-        if why is not None:
-            await self._report(
-                ProgressEvent.PAUSED,
-                mission_id,
-                request_id=request_id,
-                ok=False,
-                error=f"resume refused: {why}; still {paused.takeover.describe()}",
-                result=paused.takeover.fields(),
-            )
-            return
-        self.paused = None
-        self.controller.navigation.modes.adopt()  # the steps left take it from here
-        await self._report(
-            ProgressEvent.RESUMED,
-            mission_id,
-            request_id=request_id,
-            step_index=left[0][0] if left else None,
-            step_count=paused.count,
-        )
+        paused, left = resumed
         self.queue = deque(left)
         self._task = asyncio.create_task(
             self._run(mission_id, paused.count, paused.start_index, onboard_requested=False),
@@ -297,20 +277,26 @@ class MissionWorker:
             try:
                 result = await self.execute_step(step)
             except (CommandError, FcError, StepFailed) as exc:
-                await self._report(
+                if not getattr(self.controller.fc, "connected", True):
+                    # The autopilot is gone, not the step: _run pauses the mission within
+                    # POLL_S (the step is flown again on a resume).
+                    await asyncio.Future()
+                await trigger.stop()
+                then = await safe_end.fly_the_end(self.controller, self.queue)
+                await self.report(
                     ProgressEvent.FAILED,
                     mission_id,
                     step_index=index,
                     step_count=count,
                     command=str(step.command),
                     ok=False,
-                    error=str(exc),
+                    error=f"{exc}; {then}" if then else str(exc),
                     step_started_s=began,
                     step_duration_s=self.clock.now() - began,
                 )
                 self._finish()
                 return
-            await self._report(
+            await self.report(
                 ProgressEvent.STEP,
                 mission_id,
                 step_index=index,
@@ -321,7 +307,7 @@ class MissionWorker:
                 result=result or None,
             )
         await trigger.stop()
-        await self._report(
+        await self.report(
             ProgressEvent.COMPLETED,
             mission_id,
             step_count=count,
@@ -341,7 +327,7 @@ class MissionWorker:
         try:
             put = await self.autopilot_fence.prepare(*wanted)
         except FcError as exc:
-            await self._report(
+            await self.report(
                 ProgressEvent.FAILED,
                 mission_id,
                 step_index=steps[0][0] if steps else None,
@@ -361,48 +347,23 @@ class MissionWorker:
         self.controller.step_index = None
 
     async def execute_step(self, step: Any) -> dict[str, Any]:
-        """Run one step: control commands go to the controller; the rest are handled here."""
-        if step.command in CONTROL_COMMANDS:
-            return await self.controller.execute(step)
-        match step.command:
-            case Command.WAIT_FOR_FLIGHT:
-                return await step_actions.wait_for_flight(self.controller, step)
-            case Command.SLEEP:
-                await self.clock.sleep(step.value)
-                return {"slept_s": step.value}
-            case Command.VIRTUALALARM:
-                return step_actions.virtual_alarm(
-                    self.controller, self.outbox, step, self.mission_id
-                )
-            case Command.READ_SENSORS:
-                return await self.sensors.read(step)
-            case Command.CAMERA_TRIGGER:
-                return await self.controller.camera_trigger.set_distance(step.value)
-        raise StepFailed(f"step command {step.command!r} is not supported")
+        """Run one step: control commands go to the controller; the rest are step_actions'."""
+        return await step_actions.execute(
+            self.controller, step, self.outbox, self.sensors, self.mission_id
+        )
 
     def _in_air(self) -> bool:
         return self.controller.fc.state().in_air
 
-    async def _report(self, event: ProgressEvent, mission_id: str, **fields: Any) -> None:
-        fc = self.controller.fc
-        for key in ("step_started_s", "step_duration_s"):
-            if fields.get(key) is not None:
-                fields[key] = round(fields[key], 3)
-        progress = MissionProgress(
-            drone_id=self.controller.drone_id,
-            mission_id=mission_id,
-            event=event,
-            position=position_of(fc.position(), fc.home()),
-            vehicle_time_s=round(self.clock.now(), 3),
-            **fields,
-        )
-        await self.publish(progress)
+    async def report(self, event: ProgressEvent, mission_id: str, **fields: Any) -> None:
+        """Publish a report of ``event`` where the vehicle is now (drone/progress_reports.py)."""
+        await self.publish(progress_reports.progress(self.controller, event, mission_id, **fields))
 
     async def publish(self, progress: MissionProgress) -> None:
         """Publish a report (QoS 1) and keep it for :meth:`_replay` (not a rejection: it answers a
         request that never became a mission)."""
         if progress.event is ProgressEvent.STEP and progress.mission_id == self.mission_id:
-            self._done.add(progress.step_index if progress.step_index is not None else -1)
+            self.steps_done.add(progress.step_index if progress.step_index is not None else -1)
         self.reports.keep(progress)  # numbered; the ground asks again for a gap in them
         topic_name = self.controller.topic(Channel.MISSION)
         if progress.event is ProgressEvent.REJECTED:
@@ -416,33 +377,4 @@ class MissionWorker:
 
     async def _replay(self, mission_id: str, request_id: str | None) -> None:
         """Re-send every report of ``mission_id``, in order; readers drop the duplicates."""
-        kept = self.reports.replay(mission_id)
-        if kept is None:
-            return  # just re-sent: a burst of requests gets one replay
-        if not kept:
-            await self._report(
-                ProgressEvent.REJECTED,
-                mission_id,
-                request_id=request_id,
-                ok=False,
-                error=f"no reports kept for mission {mission_id!r}",
-            )
-            return
-        for progress in kept:
-            self.outbox.post(self.controller.topic(Channel.MISSION), progress)
-        if (
-            mission_id in self.reports.interrupted
-        ):  # after its reports, in order: the rest is not flown
-            fc = self.controller.fc
-            said = MissionProgress(
-                drone_id=self.controller.drone_id,
-                mission_id=mission_id,
-                request_id=request_id,
-                event=ProgressEvent.REJECTED,
-                ok=False,
-                error="interrupted: the drone software restarted while flying it; its reports "
-                "were sent again, the rest is not flown",
-                position=position_of(fc.position(), fc.home()),
-                vehicle_time_s=round(self.clock.now(), 3),
-            )
-            self.outbox.post(self.controller.topic(Channel.MISSION), said)
+        await progress_reports.replay(self, mission_id, request_id)

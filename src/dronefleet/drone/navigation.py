@@ -81,10 +81,15 @@ class NavigationProcessor:
         self.rally_points: list[RallyPoint] = []
         self.fence: Geofence | None = None
         self.modes = ModeLedger(fc)  # the flight modes we chose (drone/takeover.py)
+        #: Why the drone must land where it is (its battery: drone/battery_guard.py); while set
+        #: and in the air, nothing but a landing is flown (issue 26: a queued return order
+        #: once overrode it).
+        self.must_land: str | None = None
 
     # -- requests ----------------------------------------------------------------------------
     async def takeoff(self, altitude_m: float | None = None) -> LLA:
         height = self.takeoff_altitude_m if altitude_m is None else altitude_m
+        self._may_fly("take-off")
         self._check_height(height)
         self._stop_homing()
         async with self.modes.choosing():
@@ -118,6 +123,7 @@ class NavigationProcessor:
         to RTL_ALT, fly home, land), else the same here (:data:`RTL_ALT_M`). With ``rally``, to
         the nearest rally point nearer than home instead, at its height, and land there.
         ``wait_for_flight`` then waits until the drone is down. Returns where it lands."""
+        self._may_fly("return home")
         home = self.fc.home()
         self._stop_homing()
         point = self._rally_point(home) if rally else None
@@ -178,6 +184,7 @@ class NavigationProcessor:
         self.landing = True
 
     async def hold(self) -> LLA:
+        self._may_fly("hold")
         self._stop_homing()
         here = self.fc.position()
         async with self.modes.choosing():
@@ -246,6 +253,11 @@ class NavigationProcessor:
             )
         self.takeoff_height_m = None
 
+    def _may_fly(self, what: str) -> None:
+        """Refuses ``what`` while the drone must land (:attr:`must_land`) and is in the air."""
+        if self.must_land is not None and self.fc.state().in_air:
+            raise FcRefused(f"{what} refused: {self.must_land}")
+
     def _check_height(self, height_m: float) -> None:
         if height_m < 0:
             raise FcRefused(
@@ -257,6 +269,7 @@ class NavigationProcessor:
             )
 
     async def _go(self, target: LLA) -> LLA:
+        self._may_fly("navigation")
         state = self.fc.state()
         if not state.armed:
             raise FcError("vehicle is not armed: arm (and take off) before navigating")

@@ -10,7 +10,10 @@ When: the flight controller has a ``mission`` facade (MAVLink), every step is on
 fly (:data:`FLYABLE`; ``arm`` only before the first flying step), and the mission asks for it
 (``MissionRequest.onboard``, from the planner's ``options.onboard``) or, when it does not say, the
 drone is configured for it (``DroneConfig.onboard_missions``, ``dronefleet drone
---onboard-missions``) or the mission has at least :data:`ONBOARD_MIN_STEPS` steps.
+--onboard-missions``) or the mission has at least :data:`ONBOARD_MIN_STEPS` steps. A mission that
+is wanted on board but cannot be (a step with no on-board form, a failed upload) flies from the
+companion computer, and the drone's log says why; the planner refuses one the operator asked on
+board that cannot be, and says so on the leg otherwise (ground/planner/launch.py).
 
 Each report is built when the autopilot's event arrives (its vehicle time and position) and queued;
 publishing is QoS 1, and the broker client waits out broker outages, so reports made while the
@@ -18,15 +21,18 @@ broker is down reach the ground, in order, when it is back — the vehicle meanw
 
 Step → item: ``takeoff`` NAV_TAKEOFF, ``navigate`` NAV_WAYPOINT (done when it becomes current),
 ``wait_for_flight`` (done when the last waypoint is reached), ``sleep`` NAV_LOITER_TIME where the
-vehicle is, ``land`` NAV_LAND. ArduPilot runs the DO items after a NAV item when that item
-completes (``AP_Mission::advance_current_nav_cmd``), so a picture needs no stop of its own:
-``takepic`` right after a waypoint is a DO_DIGICAM_CONTROL after it (taken as the waypoint is
-reached, flown through), ``camera_trigger`` a DO_SET_CAM_TRIGG_DIST after it (a fly-through
-survey line: first picture at the line's start, then every N metres, off at its end — as
-QGroundControl's surveys fly). Only a ``takepic`` with no waypoint before it becomes a
-zero-second loiter and the picture. A last loiter is followed by a hold waypoint so its end is
-seen as the next item becoming current. The autopilot's CAMERA_FEEDBACK / CAMERA_IMAGE_CAPTURED
-count is the mission's photo count.
+vehicle is, ``land`` NAV_LAND, ``rtl`` NAV_RETURN_TO_LAUNCH (the autopilot's own RTL: to its RTL
+altitude, home or its nearest rally point, then down; done when it has landed and disarmed), and
+a mission that ends in the air (the ``hold`` end) ends with NAV_LOITER_UNLIM where it is, so the
+autopilot holds there in AUTO until told otherwise. ArduPilot runs the DO items after a NAV item
+when that item completes (``AP_Mission::advance_current_nav_cmd``), so a picture needs no stop
+of its own: ``takepic`` right after a waypoint is a DO_DIGICAM_CONTROL after it (taken as the
+waypoint is reached, flown through), ``camera_trigger`` a DO_SET_CAM_TRIGG_DIST after it (a
+fly-through survey line: first picture at the line's start, then every N metres, off at its end
+— as QGroundControl's surveys fly). Only a ``takepic`` with no waypoint before it becomes a
+zero-second loiter and the picture. The end of a mission that stays up is seen as its
+NAV_LOITER_UNLIM becoming current; one that comes down (LAND, RTL) ends landed and disarmed.
+The autopilot's CAMERA_FEEDBACK / CAMERA_IMAGE_CAPTURED count is the mission's photo count.
 """
 
 from __future__ import annotations
@@ -40,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 from dronefleet.drone.state import position_of
 from dronefleet.messaging.commands import Command
 from dronefleet.messaging.missions import MissionProgress, ProgressEvent
+from dronefleet.protocols.mavlink.items import ONBOARD_STEPS, onboard_refusal
 from dronefleet.vehicle.base import FcError, FlightMode
 
 if TYPE_CHECKING:
@@ -49,19 +56,8 @@ log = logging.getLogger(__name__)
 
 #: Missions with at least this many steps go on board even without the flag (None: never).
 ONBOARD_MIN_STEPS: int | None = None
-#: Step commands the autopilot can fly.
-FLYABLE = frozenset(
-    {
-        Command.ARM,
-        Command.TAKEOFF,
-        Command.NAVIGATE,
-        Command.WAIT_FOR_FLIGHT,
-        Command.SLEEP,
-        Command.TAKEPIC,
-        Command.CAMERA_TRIGGER,
-        Command.LAND,
-    }
-)
+#: Step commands the autopilot can fly (protocols/mavlink/items.py, shared with the planner).
+FLYABLE = frozenset(Command(c) for c in ONBOARD_STEPS)
 #: Vehicle seconds out of AUTO (or disarmed) before the mission counts as abandoned.
 LEFT_AUTO_GRACE_S = 3.0
 
@@ -126,6 +122,8 @@ class _Items:
             return self.nav(mi.loiter_time(*self.goal, self.alt_m, seconds)) + 2  # next starts
         if command is Command.LAND:
             return self.nav(mi.land())
+        if command is Command.RTL:
+            return self.nav(mi.return_to_launch())
         if command is Command.TAKEPIC:
             if not self.at_goal:  # nothing to fly through: stop here for the picture
                 self.nav(mi.loiter_time(*self.goal, self.alt_m, 0.0))
@@ -135,11 +133,21 @@ class _Items:
         return self.after_nav()  # these and WAIT_FOR_FLIGHT: when the NAV item before is done
 
 
+def refusal(steps: list[tuple[int, Any]]) -> str | None:
+    """Why ``steps`` cannot be flown on board (naming the step), or None."""
+    found = onboard_refusal([str(step.command) for _, step in steps])
+    if found is None:
+        return None
+    k, why = found
+    return f"step {steps[k][0]} ({steps[k][1].command}): {why}"
+
+
 def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | None:
     """The on-board form of ``steps``, or None when some step cannot be flown on board."""
     from dronefleet.protocols.mavlink import items as mi
+    from dronefleet.protocols.mavlink.codec import dialect
 
-    if any(step.command not in FLYABLE for _, step in steps):
+    if refusal(steps) is not None:
         return None
     fc, config = worker.controller.fc, worker.config
     here, home = fc.position(), fc.home()
@@ -149,18 +157,18 @@ def plan(worker: MissionWorker, steps: list[tuple[int, Any]]) -> OnboardPlan | N
     thresholds: list[tuple[int, Any, int]] = []
     for index, step in steps:
         if step.command is Command.ARM:
-            if built.items:
-                return None  # arming between flying steps: leave it to the companion computer
             prefix.append((index, step))
         else:
             thresholds.append((index, step, built.add(step)))
     items = built.items
     if not items:
         return None
-    last = max(level for *_, level in thresholds) if thresholds else 0
-    if last >= 2 * len(items) - 1 or not items[-1].is_nav:
-        # its start marks the end of what came before
-        items.append(mi.waypoint(*built.goal, built.alt_m))
+    navs = [item for item in items if item.is_nav]
+    down = {dialect.MAV_CMD_NAV_LAND, dialect.MAV_CMD_NAV_RETURN_TO_LAUNCH}
+    if navs[-1].command not in down:
+        # It ends in the air: hold there, in AUTO, until told otherwise (the ``hold`` end); the
+        # loiter's start marks the end of what came before.
+        items.append(mi.loiter_unlimited(*built.goal, built.alt_m))
     return OnboardPlan(items, prefix, thresholds)
 
 
@@ -172,7 +180,14 @@ async def fly(
     requested: bool | None = None,
 ) -> bool:
     """Fly ``steps`` on board, reporting each; False (nothing done) when they cannot be."""
-    if not wanted(worker, steps, requested) or (onboard := plan(worker, steps)) is None:
+    if not wanted(worker, steps, requested):
+        return False
+    if (onboard := plan(worker, steps)) is None:
+        why = refusal(steps) or "nothing to fly on board"
+        log.warning(
+            "%s: mission %s flies from the companion computer, not on board: %s",
+            worker.config.drone_id, mission_id, why,
+        )  # fmt: skip
         return False
     fc: Any = worker.controller.fc  # a backend with a ``mission`` facade (wanted() checked)
     try:
@@ -245,9 +260,11 @@ async def _run(worker, fc, onboard: OnboardPlan, mission_id: str, count: int, ou
         )
     pending = list(onboard.thresholds)
     level = -1
-    # ArduPilot reports no MISSION_ITEM_REACHED for a final NAV_LAND: it lands, disarms, and the
-    # mission goes back to item 1. Landed and disarmed once that item was current is its end.
-    lands = [i for i, item in enumerate(onboard.items) if item.command == dialect.MAV_CMD_NAV_LAND]
+    # ArduPilot reports no MISSION_ITEM_REACHED for a final NAV_LAND or NAV_RETURN_TO_LAUNCH: it
+    # lands, disarms, and the mission goes back to item 1. Landed and disarmed once that item was
+    # current is its end.
+    down = {dialect.MAV_CMD_NAV_LAND, dialect.MAV_CMD_NAV_RETURN_TO_LAUNCH}
+    lands = [i for i, item in enumerate(onboard.items) if item.command in down]
     land_level = 2 * lands[-1] if lands else None
     events: asyncio.Queue[Any] = asyncio.Queue()
     fc.mission.current_seq = None  # what was current before the upload says nothing now

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.missions import MissionProgress, ProgressEvent
+from dronefleet.owner_only import private_file
 
 log = logging.getLogger(__name__)
 
@@ -42,12 +43,12 @@ class ReportStore:
     def __init__(self, path: Path | None) -> None:
         self.db: sqlite3.Connection | None = None
         if path is not None:
-            path.parent.mkdir(parents=True, exist_ok=True)
+            # 0600 before SQLite opens it, so its -wal and -shm files are too (issue 25).
+            private_file(path)
             self.db = sqlite3.connect(path, isolation_level=None)
             self.db.execute("PRAGMA journal_mode=WAL")
             self.db.execute("PRAGMA synchronous=NORMAL")
             self.db.execute(_SCHEMA)
-            path.chmod(0o600)
 
     def add(self, progress: MissionProgress) -> None:
         if self.db is None or progress.seq is None:

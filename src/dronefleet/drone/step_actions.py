@@ -1,6 +1,7 @@
 """The mission steps a Drone Controller does not run itself (seed Table 4.3): waiting for the
 flight to reach its goal, a virtual alarm, and reading the sensors at a waypoint. The Mission
-Worker (drone/mission_worker.py) calls them in a step's turn."""
+Worker (drone/mission_worker.py) runs each step through :func:`execute`, which hands the control
+commands to the Drone Controller and the rest to these."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from dronefleet.drone.controller import CommandError
 from dronefleet.drone.navigation import Tolerance
 from dronefleet.drone.state import position_of
 from dronefleet.errors import Failed
+from dronefleet.messaging.commands import CONTROL_COMMANDS, Command
 from dronefleet.messaging.gear import GearQuery
 from dronefleet.messaging.status import Alarm
 from dronefleet.messaging.topics import Channel
@@ -106,3 +108,28 @@ def sensor_names(sensors: dict[str, Any]) -> list[str]:
         elif key.upper() != "CAMERA":
             names.append(key)
     return names
+
+
+async def execute(
+    controller: DroneController,
+    step: Any,
+    outbox: Outbox,
+    sensors: SensorReadings,
+    mission_id: str | None,
+) -> dict[str, Any]:
+    """Run one step: control commands go to the controller; the rest are handled here."""
+    if step.command in CONTROL_COMMANDS:
+        return await controller.execute(step)
+    match step.command:
+        case Command.WAIT_FOR_FLIGHT:
+            return await wait_for_flight(controller, step)
+        case Command.SLEEP:
+            await controller.clock.sleep(step.value)
+            return {"slept_s": step.value}
+        case Command.VIRTUALALARM:
+            return virtual_alarm(controller, outbox, step, mission_id)
+        case Command.READ_SENSORS:
+            return await sensors.read(step)
+        case Command.CAMERA_TRIGGER:
+            return await controller.camera_trigger.set_distance(step.value)
+    raise StepFailed(f"step command {step.command!r} is not supported")

@@ -10,7 +10,9 @@ vehicle to them until the operator resumes or aborts it from the ground.
 How it is told apart from our own changes: every flight-controller call that may change the mode
 (the Navigation Processor's and Arming Switch's, the on-board mission start) runs inside
 :meth:`ModeLedger.choosing`, after which the ledger keeps the mode the vehicle is in: the mode we
-chose. Armed and in the air, outside a choice in progress, in another mode: taken over. It is
+chose — or, while the vehicle does not show it yet, the mode it was asked for
+(``fc.expected_mode()``: PX4 acknowledges a take-off before its HEARTBEAT says AUTO.TAKEOFF).
+Armed and in the air, outside a choice in progress, in another mode: taken over. It is
 looked at every :data:`POLL_S` vehicle seconds, the telemetry period (ArduPilot, and our simulated
 Copter, send a HEARTBEAT at once when the mode changes; otherwise at 1 Hz).
 """
@@ -22,6 +24,7 @@ from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from typing import Any
 
+from dronefleet.geo.types import LLA
 from dronefleet.messaging.commands import Command
 from dronefleet.vehicle.base import FlightController, FlightMode
 
@@ -31,6 +34,13 @@ POLL_S = 0.2
 SOMEONE_ELSE = "another ground station or the RC pilot"
 #: A pause asked for on ``mission/in``: the drone holds, as if it had been taken over.
 OPERATOR = "the operator"
+#: A direct command obeyed mid-mission (a land, an RTL, a forced one): the command flies the
+#: vehicle, the mission waits (drone/direct_commands.py). ``mode`` is the command, ``reason``
+#: who sent it.
+DIRECT = "a direct command"
+#: The autopilot stopped answering mid-mission (issue 26): the mission waits for the operator,
+#: who may resume it once the link is back (on the ground after a reboot: refused, abort it).
+LINK_LOST = "the autopilot link"
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,6 +53,11 @@ class Takeover:
     def describe(self) -> str:
         if self.by == OPERATOR:
             return "paused by the operator: holding"
+        if self.by == LINK_LOST:
+            return f"paused: the autopilot link is lost ({self.reason})"
+        if self.by == DIRECT:
+            who = f" ({self.reason})" if self.reason else ""
+            return f"paused for a direct {self.mode} command{who}"
         why = f" ({self.reason})" if self.reason else ""
         return f"taken over: flight mode {self.mode} set by {self.by}{why}"
 
@@ -67,15 +82,21 @@ class ModeLedger:
             yield
         finally:
             self._choosing -= 1
-            self.chosen = self.fc.state().mode
+            self.chosen = self._expected() or self.fc.state().mode
 
     def adopt(self) -> None:
         """Count the mode the vehicle is in now as ours (the operator resumed in it)."""
         self.chosen = self.fc.state().mode
 
+    def _expected(self) -> FlightMode | None:
+        """The mode the flight controller commanded and its autopilot does not show yet (PX4
+        acknowledges a take-off before its HEARTBEAT shows AUTO.TAKEOFF): ours, not a takeover."""
+        expected = getattr(self.fc, "expected_mode", None)
+        return expected() if callable(expected) else None
+
     def takeover(self) -> Takeover | None:
         """A takeover now, or None (on the ground, nothing chosen yet, or a choice under way)."""
-        if self._choosing or self.chosen is None:
+        if self._choosing or self.chosen is None or self._expected() is not None:
             return None
         state = self.fc.state()
         if not (state.armed and state.in_air) or state.mode is self.chosen:
@@ -98,6 +119,10 @@ class Paused:
     steps: list[tuple[int, Any]]  # the mission's steps, labelled with their indices
     done: set[int]  # indices reported done
     takeover: Takeover
+    # Where the mission was flying to (and whether it was landing): a direct command flown
+    # meanwhile moves the Navigation Processor's goal, a resume flies back to this one.
+    goal: LLA | None = None
+    landing: bool = False
 
     def left(self) -> list[tuple[int, Any]]:
         """The steps to fly on resuming: those not done, from an absolute ``navigate`` again

@@ -1,6 +1,7 @@
 """A whole platform for one experiment: broker, ground services, Mission Planner, drones.
 
-Everything runs through the real components — the embedded MQTT broker, the Drone Identifier,
+Everything runs through the real components — the in-process bus (messaging/local_bus.py: a
+broker with the deployment's rules that virtual time can see), the Drone Identifier,
 the Mission Planner, each drone's controller and Mission Worker — on simulated vehicles that share
 one sim clock, so every duration is in vehicle seconds and comparable with the seed's flights.
 """
@@ -22,7 +23,7 @@ from dronefleet.ground.planner.service import MissionPlanner
 from dronefleet.ground.services import GroundServices
 from dronefleet.messaging.broker_users import BrokerRole
 from dronefleet.messaging.commands import parse_control
-from dronefleet.messaging.embedded import EmbeddedBroker
+from dronefleet.messaging.local_bus import LocalBus
 from dronefleet.sim.clock import SimClock
 
 #: The seed's field: the University of Aveiro campus.
@@ -40,7 +41,7 @@ class Harness:
         self.speedup = speedup
         self._tmp = None if workdir else tempfile.TemporaryDirectory(prefix="dronefleet-exp-")
         self.workdir = workdir if workdir is not None else Path(self._tmp.name)  # type: ignore[union-attr]
-        self.broker = EmbeddedBroker()
+        self.broker = LocalBus()
         self.fleet = ProtocolFleet(speedup=speedup, backend=fc)
         self.ground: GroundServices | None = None
         self._planner: MissionPlanner | None = None

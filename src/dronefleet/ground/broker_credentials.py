@@ -30,8 +30,7 @@ class BrokerCredentials:
 
     async def open(self) -> BrokerCredentials:
         await self.state.script(_SCHEMA)
-        columns = {row[1] for row in await self.state.rows("PRAGMA table_info(broker_users)")}
-        if "rabbit_hash" not in columns:
+        if "rabbit_hash" not in await self.state.columns("broker_users"):
             await self.state.write((_RABBIT_COLUMN, ()))
         return self
 

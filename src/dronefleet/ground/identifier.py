@@ -1,9 +1,12 @@
 """Drone Identifier (seed 3.4.2.1, 4.2.1): who is connected, where, with what gear.
 
-It listens to ``+/heartbeats/out`` on the ground broker, asks each new drone's Gear Manager for its
-specifications and sensors (``<id>/gear/in``), marks drones ``lost`` after 3 silent heartbeat
-intervals and ``online`` on the next heartbeat, and keeps the fleet in the ground state store.
-Other ground components ask it over the broker (Fig. 4.31-4.32): a request on
+It reads every drone's heartbeats (``+/heartbeats/out``) from the ground's Fleet Inbox
+(ground/inbox.py: read and validated once for every ground service), asks each new drone's Gear
+Manager for its specifications and sensors (``<id>/gear/in``), marks drones ``lost`` after 3 of
+their declared heartbeat intervals of silence in the ground's own awake time (ground/fleet.py: a
+ground that was stalled, deaf or restarting declares nobody lost for it) and ``online`` on the
+next heartbeat, and keeps the fleet in the ground state store. Other ground components ask it
+over the broker (Fig. 4.31-4.32): a request on
 ``ground/identifier/in`` (``{"request_id", "query": "discover"|"drone", "drone_id", "reply_to"}``)
 is answered on ``reply_to`` (default ``ground/identifier/out``) echoing the ``request_id``.
 Fleet changes (a drone new, lost or back) are announced on ``ground/identifier/events``.
@@ -14,21 +17,29 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections import Counter
 from typing import Any, Literal
 
 from pydantic import Field
 
 from dronefleet.clock import timestamp_s
-from dronefleet.ground.fleet import MIN_LOST_AFTER_S, DroneRecord, DroneStatus, LenientHeartbeat
+from dronefleet.ground.fleet import (
+    MIN_LOST_AFTER_S,
+    TICK_S,
+    AwakeClock,
+    DroneRecord,
+    DroneStatus,
+)
+from dronefleet.ground.inbox import FleetInbox
 from dronefleet.ground.state import StateStore
-from dronefleet.messaging.client import QOS_STREAM, BrokerClient
+from dronefleet.messaging.bridge import BRIDGE_RESTART_MAX_S
+from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import MessageError, decode_object
 from dronefleet.messaging.common import Message, validate
 from dronefleet.messaging.gear import GearQuery, GearRequest
 from dronefleet.messaging.ground_events import FleetChange, FleetEvent
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.rpc import Requester, RequestTimeout
+from dronefleet.messaging.status import Heartbeat, Telemetry
 from dronefleet.messaging.topics import (
     GROUND_PREFIX,
     IDENTIFIER_EVENTS,
@@ -52,6 +63,15 @@ EVENTS_TOPIC = IDENTIFIER_EVENTS
 PERSIST_EVERY_S = 5.0
 GEAR_TIMEOUT_S = 5.0
 GEAR_RETRY_S = 30.0
+#: Liveness ticks in a row that must come on time before anyone may be declared lost.
+STEADY_TICKS = 2
+#: Awake seconds after the ground's heartbeat subscription is in place again (a reconnect, not
+#: the first) during which nobody is declared lost: when the ground's broker itself restarted,
+#: every drone's link to it was cut too, and a bridged drone comes back only at its bridge's
+#: next attempt (up to BRIDGE_RESTART_MAX_S). Chaos seed 108: the ground broker down 13 s;
+#: after it came back, the bridged drones were silent some seconds more, one was declared lost,
+#: confirmed, taken over and sent home with no cause of its own.
+RECONNECT_GRACE_S = BRIDGE_RESTART_MAX_S + 2.0
 
 
 class DroneIdentifier:
@@ -64,10 +84,13 @@ class DroneIdentifier:
         *,
         client_id: str,
         lost_after_s: float = MIN_LOST_AFTER_S,
+        inbox: FleetInbox | None = None,
     ) -> None:
-        #: Heartbeats dropped, by why: malformed (or an id off the pattern, an absurd
-        #: interval), or a drone speaking on another's topic (issue 12).
-        self.dropped: Counter[str] = Counter()
+        #: Where the heartbeats come from, read and checked once (malformed ones, or a drone
+        #: speaking on another's topic, are dropped and counted there: issue 12); alone (no
+        #: ground's inbox given), an inbox of its own.
+        self.inbox = inbox or FleetInbox(broker_url, client_id=f"{client_id}-inbox")
+        self._own_inbox = inbox is None
         self.lost_after_s = lost_after_s  # at least this long unheard before "lost"
         self.client = BrokerClient(broker_url, client_id)
         self.requester = Requester(self.client)
@@ -79,26 +102,45 @@ class DroneIdentifier:
         self._tasks: list[asyncio.Task[None]] = []
         self._gear_tasks: set[asyncio.Task[None]] = set()
         self.dropped_queries = 0  # messages on ground/identifier/in that were not queries
+        #: The ground's awake time (fleet.AwakeClock): what a drone's silence is counted in.
+        self.awake = AwakeClock()
+        self._connections = 0  # the broker link whose subscription silence is counted from
+        self._steady = 0  # liveness ticks in a row that came on time
+        self._grace_until = 0.0  # awake time before which nobody is declared lost (a reconnect)
 
     async def start(self) -> DroneIdentifier:
-        started = timestamp_s()
         for data in await self.state.load_drones():
             with contextlib.suppress(ValueError):
-                record = DroneRecord.model_validate(data)
-                # After a ground restart give every drone 3 intervals to be heard again.
-                if record.status is not DroneStatus.LOST:
-                    record.last_seen = max(record.last_seen, started)
+                record = DroneRecord.loaded(data)
                 self.fleet[record.drone_id] = record
-        await self.client.subscribe(
-            any_drone(Channel.HEARTBEATS), self._on_heartbeat, qos=QOS_STREAM
-        )
+        self.inbox.heartbeats.queued("identifier", self._on_heartbeat)
+        self.inbox.telemetry.direct("identifier", self._on_telemetry)
         await self.client.subscribe(QUERY_TOPIC, self._on_query)
         await self.client.start()
+        if self._own_inbox:
+            await self.inbox.start()
+        # Connected means subscribed (messaging/client.py makes every subscription first): only
+        # from now on can silence be heard, so only from now on does it count (issue 26: the
+        # grace after a restart began before the subscription, and a drone was lost for it).
+        # The heartbeats' subscription is the inbox's (its heartbeats' connection).
+        self.awake = AwakeClock()
+        self._listening(self.inbox.heartbeats.client.connections)
         self._tasks = [
             asyncio.create_task(self._watch_liveness(), name="identifier:liveness"),
             asyncio.create_task(self._persist_loop(), name="identifier:persist"),
         ]
         return self
+
+    def _listening(self, connections: int) -> None:
+        """The subscription is (again) in place: every drone not lost gets its whole
+        :meth:`~DroneRecord.lost_after_s` of awake time, from now, to be heard."""
+        again = self._connections > 0  # a reconnect: the broker may have dropped everyone
+        self._connections = connections
+        now = self.awake.now()
+        if again:
+            self._grace_until = now + RECONNECT_GRACE_S
+        for record in self.fleet.values():
+            record.heard_at(now)
 
     async def stop(self) -> None:
         for task in [*self._tasks, *self._gear_tasks]:
@@ -107,38 +149,25 @@ class DroneIdentifier:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self._tasks = []
+        await self.inbox.heartbeats.detach("identifier")
+        await self.inbox.telemetry.detach("identifier")
+        if self._own_inbox:
+            await self.inbox.stop()
         await self._flush()
         await self.client.stop()
 
     # -- heartbeats ----------------------------------------------------------------------------
-    async def _on_heartbeat(self, topic_name: str, payload: bytes) -> None:
-        try:
-            hb = validate(LenientHeartbeat, decode_object(payload))
-        except MessageError as exc:
-            self.dropped["malformed heartbeat"] += 1
-            _throttle.log(
-                logging.WARNING, "heartbeat", "dropping heartbeat on %s: %s", topic_name, exc
-            )
-            return
-        if not topic_name.startswith(f"{hb.drone_id}/"):
-            self.dropped["heartbeat on another drone's topic"] += 1
-            _throttle.log(
-                logging.WARNING,
-                "heartbeat",
-                "dropping heartbeat of %s sent on %s",
-                hb.drone_id,
-                topic_name,
-            )
-            return
-        now = timestamp_s()
+    async def _on_heartbeat(self, hb: Heartbeat) -> None:
+        """A heartbeat as the inbox read it (valid, on its own drone's topic)."""
+        now, awake = timestamp_s(), self.awake.now()
         record = self.fleet.get(hb.drone_id)
         if record is None:
-            record = self.fleet[hb.drone_id] = DroneRecord.first(hb, now)
+            record = self.fleet[hb.drone_id] = DroneRecord.first(hb, now, awake)
             log.info("drone %s joined the fleet", hb.drone_id)
             await self._announce(record, FleetChange.NEW)
         else:
             before = record.status
-            came_back = record.observe(hb, now)
+            came_back = record.observe(hb, now, awake)
             if record.status is DroneStatus.AUTOPILOT_LINK_LOST and before is not record.status:
                 log.warning("drone %s: its autopilot link is lost", hb.drone_id)
                 await self._announce(record, FleetChange.AUTOPILOT_LINK_LOST)
@@ -149,27 +178,65 @@ class DroneIdentifier:
         if record.specs is None or record.sensors is None:
             self._maybe_ask_gear(hb.drone_id, now)
 
+    def _on_telemetry(self, msg: Telemetry) -> None:
+        """A telemetry message (quick: called at once for each): the drone's newest position."""
+        record = self.fleet.get(msg.drone_id)
+        if record is not None:
+            record.track(msg.vehicle_time_s, msg.fields)
+
     async def _watch_liveness(self) -> None:
         while True:
-            await asyncio.sleep(0.05)
-            now = timestamp_s()
-            for record in list(self.fleet.values()):
-                if record.status is not DroneStatus.LOST and now > record.deadline(
-                    self.lost_after_s
-                ):
-                    record.status = DroneStatus.LOST
-                    record.status_changed = now
-                    self._dirty.add(record.drone_id)
-                    log.warning(
-                        "drone %s lost: no heartbeat for %.1f s",
-                        record.drone_id,
-                        now - record.last_seen,
-                    )
-                    await self._announce(record, FleetChange.LOST)
-                    await self._flush([record.drone_id])
+            await asyncio.sleep(TICK_S)
+            for record in self.check_liveness():
+                await self._announce(record, FleetChange.LOST)
+
+    def check_liveness(self, now: float | None = None) -> list[DroneRecord]:
+        """One liveness tick (every :data:`~dronefleet.ground.fleet.TICK_S`): count the ground's
+        awake time and mark lost every drone silent for its
+        :meth:`~dronefleet.ground.fleet.DroneRecord.lost_after_s` of it. Time the ground was
+        stalled (this tick late) or deaf (its broker link down) does not count, and after a
+        reconnect every drone's silence is counted afresh. Nobody is declared lost on a tick
+        that came late or right after one: what arrived during the stall (heartbeats waiting in
+        the socket or the subscription's queue) is read first. Returns the drones newly lost."""
+        heard = self.inbox.heartbeats.client  # the heartbeats' subscription
+        listening = heard.connected
+        if listening and heard.connections != self._connections:
+            self._listening(heard.connections)  # (re)subscribed: heard from now on
+        awake = self.awake.tick(now, listening=listening)
+        if self.awake.last_stall_s > 1.0:
+            # INFO: nothing for an operator to do about it (a loaded host's start-up stalls),
+            # and the ground's own health and the drones' status already account for it.
+            _throttle.log(
+                logging.INFO,
+                "stall",
+                "the ground was stalled %.1f s (its event loop late): not counted against any "
+                "drone's silence",
+                self.awake.last_stall_s,
+            )
+        self._steady = self._steady + 1 if listening and self.awake.last_stall_s == 0 else 0
+        if self._steady < STEADY_TICKS or awake < self._grace_until:
+            return []
+        lost = []
+        for record in list(self.fleet.values()):
+            if record.due(awake, self.lost_after_s):
+                record.status = DroneStatus.LOST
+                record.status_changed = timestamp_s()
+                self._dirty.add(record.drone_id)
+                log.warning(
+                    "drone %s lost: no heartbeat for %.1f s of the ground's awake time "
+                    "(%.1f s wall); it declares one every %.3g s",
+                    record.drone_id,
+                    record.silent_s(awake),
+                    record.seen_ago_s(),
+                    record.heartbeat_interval_s,
+                )
+                lost.append(record)
+        return lost
 
     async def _announce(self, record: DroneRecord, event: FleetChange) -> None:
-        message = FleetEvent(event=event, drone_id=record.drone_id, drone=record.public())
+        message = FleetEvent(
+            event=event, drone_id=record.drone_id, drone=record.public(self.lost_after_s)
+        )
         await self.client.publish(EVENTS_TOPIC, message, disposable=True)
         if event is not FleetChange.NEW:
             await self._flush([record.drone_id])
@@ -210,7 +277,7 @@ class DroneIdentifier:
 
     # -- queries from ground components --------------------------------------------------------
     def snapshot(self) -> list[dict[str, Any]]:
-        return [self.fleet[k].public() for k in sorted(self.fleet)]
+        return [self.fleet[k].public(self.lost_after_s) for k in sorted(self.fleet)]
 
     async def _on_query(self, topic_name: str, payload: bytes) -> None:
         try:
@@ -220,13 +287,15 @@ class DroneIdentifier:
             self.dropped_queries += 1
             _throttle.log(logging.WARNING, "query", "dropping identifier query: %s", exc)
             return
-        answer: dict[str, Any] = {"request_id": query.request_id, "ok": True}
-        if query.query == "discover":
-            answer["drones"] = self.snapshot()
-        else:
-            record = self.fleet.get(query.drone_id or "")
-            answer["drone"] = record.public() if record else None
+        answer = {"request_id": query.request_id, **self.answer(query.query, query.drone_id)}
         await self.client.publish(query.reply_to, answer)
+
+    def answer(self, query: str, drone_id: str | None = None) -> dict[str, Any]:
+        """What a query is answered: ``discover`` every drone, ``drone`` one (or None)."""
+        if query == "discover":
+            return {"ok": True, "drones": self.snapshot()}
+        record = self.fleet.get(drone_id or "")
+        return {"ok": True, "drone": record.public(self.lost_after_s) if record else None}
 
     # -- persistence ---------------------------------------------------------------------------
     async def _persist_loop(self) -> None:

@@ -1,10 +1,11 @@
 """The live separation monitor (issue 14): drones closer than they should be, as it happens.
 
-A ground service beside the Drone Identifier (seed Fig. 3.7), with its own broker connection. The
-plans are checked before they are flown (ground/planner/deconflict.py); this watches what is
-actually flown, whoever flies it — a plan, an operator's direct commands, another ground station.
-From every drone's telemetry (position and velocity, several times a second) and heartbeats
-(position, flight state) it keeps each drone's latest state and, whenever one moves, compares it
+A ground service beside the Drone Identifier (seed Fig. 3.7). The plans are checked before they
+are flown (ground/planner/deconflict/); this watches what is actually flown, whoever flies it —
+a plan, an operator's direct commands, another ground station. From every drone's telemetry
+(position and velocity, several times a second) and heartbeats (position, flight state), as the
+ground's Fleet Inbox hands them (ground/inbox.py: read once for every ground service, on a queue
+of the monitor's own), it keeps each drone's latest state and, whenever one moves, compares it
 with every other drone in the air:
 
 - **CRITICAL**: closer than 5 m horizontally and 3 m vertically now (ground/planner/separation.py:
@@ -21,6 +22,13 @@ a replacement, which is not what two drones too close need. Encounters are count
 actual) with the smallest separations seen, served at ``GET /api/v1/separation`` and printed by
 the experiments.
 
+Each message is compared only with the drones near it, found in a grid of
+:data:`CELL_M`-metre cubes on the Earth-centred frame (the 27 cubes around it): the cost per
+message does not grow with the fleet (issue 27; before, every message was compared with every
+track, O(N) per message and the ground's largest cost at 100 drones). Two drones more than a
+cube apart cannot breach within the horizon unless they close faster than
+``CELL_M / HORIZON_S`` (50 m/s); an encounter whose pair has drifted apart is cleared as before.
+
 Positions are compared in a local flat-earth approximation (metres per degree at the pair's
 latitude): at the few hundred metres where it matters it is within centimetres of the WGS84
 frame and costs no allocation per pair, so a fleet's telemetry never loads the event loop.
@@ -30,6 +38,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,14 +46,13 @@ from pydantic import BaseModel, Field
 
 from dronefleet.clock import monotonic
 from dronefleet.ground.courses import Course, breach_along, course_to
+from dronefleet.ground.inbox import FleetInbox
 from dronefleet.ground.planner.separation import HORIZONTAL_M, VERTICAL_M, WARNING_HORIZON_S
-from dronefleet.messaging.client import QOS_STREAM, BrokerClient
-from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.commands import AlarmLevel
 from dronefleet.messaging.common import Position
-from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.status import Alarm, FlightState, Heartbeat, Telemetry
-from dronefleet.messaging.topics import SEPARATION_ALARMS, Channel, any_drone
+from dronefleet.messaging.topics import SEPARATION_ALARMS
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +67,9 @@ STALE_S = 5.0
 #: Positions are moved on by their velocity at most this long (old telemetry is not a forecast).
 MAX_EXTRAPOLATION_S = 1.0
 _M_PER_DEG = 111_320.0
+#: The neighbour grid's cube side (see the module's docstring).
+CELL_M = 150.0
+_EARTH_R_M = 6_371_000.0
 _AIRBORNE = frozenset({FlightState.TAKING_OFF, FlightState.FLYING, FlightState.LANDING})
 
 
@@ -104,8 +115,11 @@ def _course(f: dict[str, float]) -> Course:
     if not {"goal_lat", "goal_lon", "goal_alt_m"} <= f.keys():
         return course_to(vel, None)
     east_m_per_deg = _M_PER_DEG * math.cos(math.radians(f["lat"]))
-    to_goal = ((f["goal_lat"] - f["lat"]) * _M_PER_DEG, (f["goal_lon"] - f["lon"]) * east_m_per_deg,
-               f["goal_alt_m"] - f["alt_m"])  # fmt: skip
+    to_goal = (
+        (f["goal_lat"] - f["lat"]) * _M_PER_DEG,
+        _dlon(f["lon"], f["goal_lon"]) * east_m_per_deg,
+        f["goal_alt_m"] - f["alt_m"],
+    )
     return course_to(vel, to_goal)
 
 
@@ -118,25 +132,42 @@ class _Encounter:
 class SeparationMonitor:
     """``await SeparationMonitor(url, client_id=...).start()``; ``status()`` for the counts."""
 
-    def __init__(self, broker_url: Any, *, client_id: str, horizon_s: float = HORIZON_S) -> None:
-        self.client = BrokerClient(broker_url, client_id)
+    def __init__(
+        self,
+        broker_url: Any,
+        *,
+        client_id: str,
+        horizon_s: float = HORIZON_S,
+        inbox: FleetInbox | None = None,
+    ) -> None:
+        self.client = BrokerClient(broker_url, client_id)  # its alarms go out on it
+        #: Telemetry and heartbeats; alone (no ground's inbox given), an inbox of its own.
+        self.inbox = inbox or FleetInbox(broker_url, client_id=f"{client_id}-inbox")
+        self._own_inbox = inbox is None
         self.horizon_s = horizon_s
         self.tracks: dict[str, _Track] = {}
         self.encounters: dict[tuple[str, str], _Encounter] = {}
         self.counts = SeparationStatus(horizon_s=horizon_s)
-        self.dropped = 0  # messages that did not validate
+        self.dropped = 0  # raw messages (:meth:`_on_telemetry`) that did not validate
+        #: Called with each alarm raised, as sent (the alarm log: ground/alarm_log.py).
+        self.alarm_listeners: list[Callable[[dict[str, Any]], None]] = []
+        self._grid: dict[tuple[int, int, int], set[str]] = {}  # cube -> drones in it
+        self._cube_of: dict[str, tuple[int, int, int]] = {}
+        self._partners: dict[str, set[str]] = {}  # drone -> drones it has an encounter with
 
     async def start(self) -> SeparationMonitor:
-        await self.client.subscribe(
-            any_drone(Channel.TELEMETRY), self._on_telemetry, qos=QOS_STREAM
-        )
-        await self.client.subscribe(
-            any_drone(Channel.HEARTBEATS), self._on_heartbeat, qos=QOS_STREAM
-        )
+        self.inbox.telemetry.queued("separation monitor", self.on_telemetry)
+        self.inbox.heartbeats.queued("separation monitor", self.on_heartbeat)
         await self.client.start()
+        if self._own_inbox:
+            await self.inbox.start()
         return self
 
     async def stop(self) -> None:
+        for feed in (self.inbox.telemetry, self.inbox.heartbeats):
+            await feed.detach("separation monitor")
+        if self._own_inbox:
+            await self.inbox.stop()
         await self.client.stop()
 
     def status(self) -> SeparationStatus:
@@ -145,12 +176,16 @@ class SeparationMonitor:
 
     # -- input ---------------------------------------------------------------------------------
     async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
-        try:
-            msg = parse_message(Telemetry, payload)
-            speaks_for_itself(topic_name, msg.drone_id)
-        except (MessageError, ValueError):
+        """A message as the broker delivers it, read as the inbox reads it (tests feed these)."""
+        msg = self.inbox.read(self.inbox.telemetry, topic_name, payload)
+        if msg is None:
             self.dropped += 1
             return
+        await self.on_telemetry(msg)
+
+    async def on_telemetry(self, msg: Telemetry) -> None:
+        """A drone's telemetry as the inbox read it: its track moved, compared with its
+        neighbours."""
         f = msg.fields
         if not {"lat", "lon", "alt_m"} <= f.keys():
             return
@@ -160,16 +195,11 @@ class SeparationMonitor:
         track.course = _course(f)
         track.seen_s = track.telemetry_s = now
         track.vehicle_time_s = msg.vehicle_time_s
-        self.tracks[msg.drone_id] = track
+        self._place(msg.drone_id, track)
         await self._compare(msg.drone_id, now)
 
-    async def _on_heartbeat(self, topic_name: str, payload: bytes) -> None:
-        try:
-            hb = parse_message(Heartbeat, payload)
-            speaks_for_itself(topic_name, hb.drone_id)
-        except (MessageError, ValueError):
-            self.dropped += 1
-            return
+    async def on_heartbeat(self, hb: Heartbeat) -> None:
+        """A drone's heartbeat as the inbox read it: its track, when its telemetry is stale."""
         now = monotonic()
         known = self.tracks.get(hb.drone_id)
         if known is not None and now - known.telemetry_s < STALE_S:
@@ -177,7 +207,7 @@ class SeparationMonitor:
         p = hb.position
         track = _Track(p.lat, p.lon, p.alt_m, in_air=hb.state in _AIRBORNE, seen_s=now)
         track.vehicle_time_s = hb.vehicle_time_s
-        self.tracks[hb.drone_id] = track
+        self._place(hb.drone_id, track)
         await self._compare(hb.drone_id, now)
 
     # -- comparison ----------------------------------------------------------------------------
@@ -186,7 +216,7 @@ class SeparationMonitor:
         east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
         da, db = _age(a, now), _age(b, now)
         n = (b.lat - a.lat) * _M_PER_DEG + b.vn * db - a.vn * da
-        e = (b.lon - a.lon) * east_m_per_deg + b.ve * db - a.ve * da
+        e = _dlon(a.lon, b.lon) * east_m_per_deg + b.ve * db - a.ve * da
         u = (b.alt_m - b.vd * db) - (a.alt_m - a.vd * da)
         return n, e, u
 
@@ -198,11 +228,40 @@ class SeparationMonitor:
         a_course, b_course = a.course.later(_age(a, now)), b.course.later(_age(b, now))
         return breach_along(rel, a_course, b_course, self.horizon_s)
 
+    def _place(self, drone_id: str, track: _Track) -> None:
+        """Keep ``track`` as the drone's latest, in the cube of the grid it is in."""
+        self.tracks[drone_id] = track
+        cube = _cube(track)
+        old = self._cube_of.get(drone_id)
+        if old == cube:
+            return
+        if old is not None:
+            members = self._grid[old]
+            members.discard(drone_id)
+            if not members:
+                del self._grid[old]
+        self._grid.setdefault(cube, set()).add(drone_id)
+        self._cube_of[drone_id] = cube
+
+    def _near(self, drone_id: str) -> set[str]:
+        """The drones in the 27 cubes around ``drone_id``'s, and those it has an encounter with
+        (so that one ends even when they have drifted apart)."""
+        x, y, z = self._cube_of[drone_id]
+        grid = self._grid
+        near: set[str] = set(self._partners.get(drone_id, ()))
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    members = grid.get((x + dx, y + dy, z + dz))
+                    if members:
+                        near |= members
+        near.discard(drone_id)
+        return near & self.tracks.keys()
+
     async def _compare(self, drone_id: str, now: float) -> None:
         me = self.tracks[drone_id]
-        for other_id, other in list(self.tracks.items()):
-            if other_id == drone_id:
-                continue
+        for other_id in sorted(self._near(drone_id)):
+            other = self.tracks[other_id]
             pair = (drone_id, other_id) if drone_id < other_id else (other_id, drone_id)
             if not (me.in_air and other.in_air) or now - other.seen_s > STALE_S:
                 await self._clear(pair, now)
@@ -237,6 +296,12 @@ class SeparationMonitor:
             encounter.clear_since = now
         elif now - encounter.clear_since >= CLEAR_S:
             del self.encounters[pair]
+            for a, b in (pair, pair[::-1]):
+                partners = self._partners.get(a)
+                if partners is not None:
+                    partners.discard(b)
+                    if not partners:
+                        del self._partners[a]
             log.info("separation: %s and %s clear again", *pair)
 
     async def _raise(
@@ -256,6 +321,8 @@ class SeparationMonitor:
             encounter.level = level
         else:
             self.encounters[pair] = _Encounter(level)
+            self._partners.setdefault(pair[0], set()).add(pair[1])
+            self._partners.setdefault(pair[1], set()).add(pair[0])
         if level is AlarmLevel.CRITICAL:
             self.counts.actual_breaches += 1
         else:
@@ -295,6 +362,8 @@ class SeparationMonitor:
             },
             vehicle_time_s=max(me.vehicle_time_s, other.vehicle_time_s),
         )
+        for listener in self.alarm_listeners:
+            listener(alarm.model_dump(mode="json", exclude_none=True))
         try:
             await self.client.publish(SEPARATION_ALARMS, alarm, qos=1)
         except Exception as exc:  # the counts stand; the stream misses this one
@@ -304,3 +373,18 @@ class SeparationMonitor:
 def _age(track: _Track, now: float) -> float:
     """How far its last position is moved on by its velocity (bounded: see MAX_EXTRAPOLATION_S)."""
     return min(max(now - track.seen_s, 0.0), MAX_EXTRAPOLATION_S)
+
+
+def _cube(track: _Track) -> tuple[int, int, int]:
+    """The grid cube (:data:`CELL_M`) of ``track``'s position on the Earth-centred frame: one
+    scale everywhere, so neighbours are neighbours at any latitude and across the antimeridian."""
+    lat, lon = math.radians(track.lat), math.radians(track.lon)
+    r = _EARTH_R_M + track.alt_m
+    flat = r * math.cos(lat)
+    x, y, z = flat * math.cos(lon), flat * math.sin(lon), r * math.sin(lat)
+    return (math.floor(x / CELL_M), math.floor(y / CELL_M), math.floor(z / CELL_M))
+
+
+def _dlon(from_deg: float, to_deg: float) -> float:
+    """Degrees of longitude from one to the other the short way (across the antimeridian too)."""
+    return (to_deg - from_deg + 180.0) % 360.0 - 180.0

@@ -2,9 +2,17 @@
 
 :class:`GroundServices` starts the state store, the Drone Identifier, the Telemetry Analyzer's
 connector and store, the Drone Manager (gateway, live stream hub, HTTP server), the Mission
-Planner and the separation monitor (ground/separation_monitor.py). Each component
-keeps its own broker connection and talks to the others only through the ground broker.
-``dronefleet ground`` and ``dronefleet demo`` both use it.
+Planner and the separation monitor (ground/separation_monitor.py). The fleet's stream
+(telemetry and heartbeats, nearly every message a ground receives) comes once, through the Fleet
+Inbox (ground/inbox.py), which reads each message once and hands the model to every service in
+process; each component keeps its own broker connection for the rest and talks to the others
+through the ground broker. ``dronefleet ground`` and ``dronefleet demo`` both use it.
+
+With the state in SQLite (the default) the ground is alone on its broker (ground/presence.py)
+and runs the Mission Planner from the start. With the state in PostgreSQL it is one of any number
+of replicas: each serves REST and the web apps, and the one holding the lease
+(ground/lease.py) runs the Mission Planner and its picture collector; a standby starts them when
+it takes the lease over, and a leader that loses it (or the database) stops them.
 """
 
 from __future__ import annotations
@@ -13,18 +21,23 @@ import asyncio
 import logging
 import secrets
 import socket
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import uvicorn
 
+from dronefleet.ground.alarm_log import AlarmLog
 from dronefleet.ground.fleet import MIN_LOST_AFTER_S
 from dronefleet.ground.identifier import DroneIdentifier
+from dronefleet.ground.inbox import FleetInbox
+from dronefleet.ground.lease import Lease
 from dronefleet.ground.manager.app import create_app
 from dronefleet.ground.manager.auth import Role, TokenBook
 from dronefleet.ground.manager.context import ManagerContext
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.manager.geocoder import Geocoder
+from dronefleet.ground.manager.health import GroundHealth
 from dronefleet.ground.manager.mbtiles import MBTiles, is_tile_url
 from dronefleet.ground.manager.stream import StreamHub
 from dronefleet.ground.photos.collector import PhotoCollector
@@ -34,6 +47,7 @@ from dronefleet.ground.planner.worker import DEFAULT_BUDGET_S, PlanningWorker
 from dronefleet.ground.presence import GroundPresence
 from dronefleet.ground.separation_monitor import SeparationMonitor
 from dronefleet.ground.state import StateStore
+from dronefleet.ground.state_pg import is_postgres_url, state_store
 from dronefleet.ground.telemetry.connector import TelemetryConnector
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
 from dronefleet.messaging.url import BrokerUrl
@@ -41,6 +55,9 @@ from dronefleet.messaging.url import BrokerUrl
 log = logging.getLogger(__name__)
 
 STOP_TIMEOUT_S = 3.0
+#: Seconds the HTTP server may take to start before the ground gives up on it (issue 26: no
+#: wait without a bound).
+HTTP_START_TIMEOUT_S = 30.0
 
 
 class GroundServices:
@@ -65,10 +82,16 @@ class GroundServices:
         tiles: str | Path | None = None,
         geocoder: str | None = None,
         photo_dir: str | Path | None = None,
+        trusted_proxies: Sequence[str] = (),
     ) -> None:
+        #: Reverse proxies whose ``X-Forwarded-For`` names the client (addresses or networks);
+        #: none by default, so the header is ignored and the peer is the client (issue 25).
+        self.trusted_proxies = list(trusted_proxies)
         self.geocoder_url = geocoder  # a Nominatim-compatible geocoder for the maps' search
-        # The drones' pictures, per mission (ground/photos): beside the state DB by default.
-        self.photo_dir = Path(photo_dir) if photo_dir else Path(state_path).parent / "photos"
+        # The drones' pictures, per mission (ground/photos): beside the state DB by default
+        # (in the current folder when the state is a database server's).
+        beside = Path(".") if is_postgres_url(state_path) else Path(state_path).parent
+        self.photo_dir = Path(photo_dir) if photo_dir else beside / "photos"
         #: Map imagery for the web maps: a tile server's URL template or an MBTiles file.
         self.tiles = tiles
         self.lost_after_s = lost_after_s  # a drone unheard this long (at least) is lost
@@ -84,13 +107,16 @@ class GroundServices:
         self.command_timeout_s = command_timeout_s
         self.serve_http = serve_http
         self.planner_client_id = planner_client_id
-        # Planning runs in worker processes with a budget (0: inline, for virtual time).
+        # Planning runs in worker processes with a budget (0: inline, for virtual time); the
+        # processes are started again when a stopped planner is started again.
         self.planning = PlanningWorker(processes=planning_processes, budget_s=planning_budget_s)
         self._given_token = token
         self._given_admin_token = admin_token
         self.operator_token: str | None = None
         self.admin_token: str | None = None
         self.state: StateStore | None = None
+        self.inbox: FleetInbox | None = None
+        self.alarms: AlarmLog | None = None
         self.telemetry: TelemetryStore | None = None
         self.identifier: DroneIdentifier | None = None
         self.connector: TelemetryConnector | None = None
@@ -100,6 +126,9 @@ class GroundServices:
         self.separation: SeparationMonitor | None = None
         self.photos: PhotoStore | None = None
         self.photo_collector: PhotoCollector | None = None
+        #: Among replicas sharing a PostgreSQL state: the lease on the Mission Planner.
+        self.lease: Lease | None = None
+        self.replica_id = f"ground-{socket.gethostname()}-{secrets.token_hex(4)}"
         self.app: Any = None
         self._server: uvicorn.Server | None = None
         self._serve_task: asyncio.Task[None] | None = None
@@ -119,66 +148,156 @@ class GroundServices:
 
     async def _start(self) -> None:
         suffix = secrets.token_hex(3)
-        self.state = await StateStore(self.state_path).open()
+        self.state = await state_store(self.state_path).open()
         self._started.append(self.state)
         tokens = TokenBook(self.state)
         await self._tokens(tokens)
+        # The alarm log (the web's alarm centre): fed by the planner and the separation monitor,
+        # stopped after them (the services stop in reverse order), so the last alarms are kept.
+        self.alarms = await AlarmLog(self.state).start()
+        self._started.append(self.alarms)
 
         self.telemetry = open_store(self.store_url)
         await self.telemetry.open()
         self._started.append(self.telemetry)
 
         url = self.broker_url
-        # One ground per broker: the planner's persistent session must not be taken over.
-        presence = GroundPresence(url, planner_id=self.planner_client_id)
-        await presence.start()
-        self._started.append(presence)
+        if not self.state.shared:
+            # One ground per broker unless the state is shared: the planner's persistent session
+            # must not be taken over. Replicas sharing PostgreSQL hold a lease instead.
+            presence = GroundPresence(url, planner_id=self.planner_client_id)
+            await presence.start()
+            self._started.append(presence)
+        # The fleet's stream, read once for every service (issue 27); subscribed before any
+        # service starts, so the Identifier counts silence from a subscription in place.
+        inbox = self.inbox = FleetInbox(url, client_id=f"ground-inbox-{suffix}")
+        await inbox.start()
+        self._started.append(inbox)
         self.identifier = DroneIdentifier(
-            url, self.state, client_id=f"ground-identifier-{suffix}", lost_after_s=self.lost_after_s
+            url,
+            self.state,
+            client_id=f"ground-identifier-{suffix}",
+            lost_after_s=self.lost_after_s,
+            inbox=inbox,
         )
         self.connector = TelemetryConnector(
-            url, self.telemetry, client_id=f"ground-telemetry-{suffix}"
+            url, self.telemetry, client_id=f"ground-telemetry-{suffix}", inbox=inbox
         )
         self.gateway = DroneGateway(
-            url, self.state, client_id=f"ground-manager-{suffix}", timeout_s=self.command_timeout_s
+            url,
+            self.state,
+            client_id=f"ground-manager-{suffix}",
+            timeout_s=self.command_timeout_s,
+            identifier=self.identifier,
         )
-        self.hub = StreamHub(url, client_id=f"ground-stream-{suffix}")
-        # The planner's broker session is persistent (QoS 1 progress queued while it is down), so
-        # its client id must be the same across restarts of the same ground.
-        self.planner = MissionPlanner(
-            url, self.state, client_id=self.planner_client_id, worker=self.planning
+        self.hub = StreamHub(url, client_id=f"ground-stream-{suffix}", inbox=inbox)
+        self.separation = SeparationMonitor(
+            url, client_id=f"ground-separation-{suffix}", inbox=inbox
         )
-        self.separation = SeparationMonitor(url, client_id=f"ground-separation-{suffix}")
-        services = (
-            self.identifier, self.connector, self.gateway, self.hub, self.planner, self.separation
-        )  # fmt: skip
+        self.separation.alarm_listeners.append(self.alarms.on_separation_alarm)
+        services = (self.identifier, self.connector, self.gateway, self.hub, self.separation)
         for service in services:
             await service.start()
             self._started.append(service)
-        # The drones' pictures: fetched as their takepic steps are reported (issue 14).
         self.photos = PhotoStore(self.photo_dir)
-        self.photo_collector = PhotoCollector(
-            url, self.planner, self.photos, client_id=f"ground-photos-{suffix}"
-        )
-        await self.photo_collector.start()
-        self._started.append(self.photo_collector)
 
         ctx = ManagerContext(self.state, tokens, self.gateway, self.telemetry, self.hub)
         self.app = create_app(ctx)
-        self.app.state.planner = self.planner
+        self.app.state.planner = None
         self.app.state.dropped = self.dropped_messages
         self.app.state.separation = self.separation
+        self.app.state.alarms = self.alarms
         self.app.state.photos = self.photos
+        self.app.state.health = GroundHealth.of(self)  # GET /api/v1/health's probes
+        self.app.state.replica = self._role if self.state.shared else None
+        if self.state.shared:
+            self.lease = Lease(
+                self.state, holder=self.replica_id, on_lead=self._lead, on_follow=self._follow
+            )
+            await self.lease.start()
+            self._started.append(self.lease)
+        else:
+            await self._lead()
+            self._started.append(_Seat(self))
         await self._map_sources()
         if self.serve_http:
             await self._serve()
 
+    async def _lead(self) -> None:
+        """Start the Mission Planner and its picture collector (this ground leads)."""
+        assert self.state is not None and self.inbox is not None and self.photos is not None
+        # The planning worker's process started and its imports done before the first request.
+        self.planning.warm("dronefleet.ground.planner.launch", "dronefleet.ground.planner.eta")
+        # The planner's broker session is persistent (QoS 1 progress queued while it is down),
+        # so its client id is the same across restarts of the ground and across its replicas:
+        # the replica that takes the lease over takes the session over with what it queued.
+        planner = MissionPlanner(
+            self.broker_url, self.state, client_id=self.planner_client_id, worker=self.planning
+        )
+        self.planner = planner
+        assert self.alarms is not None
+        planner.add_listener(self.alarms.on_planner_event)
+        try:
+            await planner.start()
+            self.inbox.telemetry.direct("mission planner", planner.on_telemetry)
+            # The drones' pictures: fetched as their takepic steps are reported (issue 14).
+            self.photo_collector = PhotoCollector(
+                self.broker_url,
+                planner,
+                self.photos,
+                client_id=f"ground-photos-{secrets.token_hex(3)}",
+            )
+            await self.photo_collector.start()
+        except BaseException:
+            await self._follow()
+            raise
+        self.app.state.planner = planner
+        self._refresh_health()
+
+    async def _follow(self) -> None:
+        """Stop the Mission Planner and its collector (this ground no longer leads)."""
+        if self.app is not None:
+            self.app.state.planner = None
+        planner, collector = self.planner, self.photo_collector
+        self.planner = self.photo_collector = None
+        self._refresh_health()  # their broker links, going down now, are no longer probed
+        if self.inbox is not None:
+            await self.inbox.telemetry.detach("mission planner")
+        for part in (collector, planner):
+            if part is not None:
+                try:
+                    async with asyncio.timeout(STOP_TIMEOUT_S):
+                        await part.stop()
+                except Exception:
+                    log.exception("stopping %s failed", type(part).__name__)
+
+    def _refresh_health(self) -> None:
+        if self.app is None:
+            return
+        before = getattr(self.app.state, "health", None)
+        health = GroundHealth.of(self)
+        if before is not None:
+            health.started = before.started
+        self.app.state.health = health
+
+    def _role(self) -> str:
+        return "leader" if self.leading else "standby"
+
+    @property
+    def leading(self) -> bool:
+        """Whether this ground runs the Mission Planner now (started, and serving REST)."""
+        return self.app is not None and self.app.state.planner is not None
+
     def dropped_messages(self) -> dict[str, int]:
         """Every broker message the ground services refused, by kind (issue 12)."""
-        counts: dict[str, int] = {}
-        for service in (self.identifier, self.planner):
-            counts.update(service.dropped if service is not None else {})
-        for kind, counted in (("telemetry", self.connector), ("stream", self.hub)):
+        counts: dict[str, int] = self.inbox.dropped_counts() if self.inbox is not None else {}
+        counts.update(self.planner.dropped if self.planner is not None else {})
+        counted_by = (
+            ("telemetry", self.connector),
+            ("stream", self.hub),
+            ("alarm_log", self.alarms),
+        )
+        for kind, counted in counted_by:
             counts[kind] = counted.dropped if counted is not None else 0
         return {kind: n for kind, n in counts.items() if n}
 
@@ -231,15 +350,25 @@ class GroundServices:
             ws="websockets-sansio",
             timeout_graceful_shutdown=2,
             timeout_keep_alive=2,
+            # uvicorn would believe X-Forwarded-For from 127.0.0.1 by default (and from whatever
+            # FORWARDED_ALLOW_IPS says): only from the proxies the ground was given.
+            proxy_headers=bool(self.trusted_proxies),
+            forwarded_allow_ips=self.trusted_proxies or [],
         )
         self._server = uvicorn.Server(config)
         self._serve_task = asyncio.create_task(
             self._server.serve(sockets=[sock]), name="ground:http"
         )
+        deadline = asyncio.get_running_loop().time() + HTTP_START_TIMEOUT_S
         while not self._server.started:
             if self._serve_task.done():
                 self._serve_task.result()  # raises the reason (e.g. port in use)
                 raise RuntimeError(f"HTTP server on {self.http_url} stopped at start")
+            if asyncio.get_running_loop().time() > deadline:
+                self._serve_task.cancel()
+                raise RuntimeError(
+                    f"HTTP server on {self.http_url} not started in {HTTP_START_TIMEOUT_S:g} s"
+                )
             await asyncio.sleep(0.02)
 
     async def stop(self) -> None:
@@ -268,3 +397,13 @@ class GroundServices:
 
     async def __aexit__(self, *exc: object) -> None:
         await self.stop()
+
+
+class _Seat:
+    """The planner of a ground that is alone on its broker, stopped with the other services."""
+
+    def __init__(self, services: GroundServices) -> None:
+        self.services = services
+
+    async def stop(self) -> None:
+        await self.services._follow()

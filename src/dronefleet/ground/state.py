@@ -7,26 +7,28 @@ is awaited through ``virtual_loop.held``: on a simulation's virtual loop, time s
 the disk works (aiosqlite's thread is invisible to the loop otherwise, and vehicle seconds would
 pass during a write — a figure that moves with load, issue 9). The Drone
 Identifier keeps its fleet here so a restart remembers it; the Drone Manager keeps tokens (hashed)
-and the audit log (the seed's logging requirement 3.1.6). Later rooms (the Mission Planner) add
-their own tables through :meth:`StateStore.script`, :meth:`write` and :meth:`rows`.
+and the audit log (the seed's logging requirement 3.1.6); what each drone was measured to draw
+per airframe is kept for the planner (issue 28: ground/planner/airframe_draws.py). Later rooms
+(the Mission Planner) add their own tables through :meth:`StateStore.script`, :meth:`write`
+and :meth:`rows`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import aiosqlite
 import orjson
 
 from dronefleet.clock import timestamp_s
+from dronefleet.owner_only import private_file
 from dronefleet.virtual_loop import held
 
-_SCHEMA = """
+SCHEMA = """
 CREATE TABLE IF NOT EXISTS drones (
     drone_id TEXT PRIMARY KEY,
     record TEXT NOT NULL,
@@ -50,6 +52,13 @@ CREATE TABLE IF NOT EXISTS audit (
     answer TEXT NOT NULL
 );
 CREATE INDEX IF NOT EXISTS audit_drone ON audit (drone_id, id);
+CREATE TABLE IF NOT EXISTS airframe_draws (
+    airframe TEXT NOT NULL,
+    drone_id TEXT NOT NULL,
+    draw_a REAL NOT NULL,
+    updated_at REAL NOT NULL,
+    PRIMARY KEY (airframe, drone_id)
+);
 """
 
 
@@ -63,10 +72,43 @@ async def _roll_back(db: aiosqlite.Connection) -> None:
 
 def _owner_only(path: Path) -> None:
     """Token hashes and the audit log: the owner's only (SQLite gives its -wal and -shm files
-    the database's mode)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.touch(mode=0o600, exist_ok=True)
-    os.chmod(path, 0o600)
+    the database's mode); a folder made for it is the owner's only too."""
+    private_file(path)
+
+
+_INT_RANGE = range(-(2**63), 2**64)  # what orjson writes as a number
+
+
+def _json(value: Any) -> str:
+    """``value`` as JSON text for an audit row. What the caller sent is kept as sent, except
+    what JSON-in-SQLite cannot hold as is: an integer past 64 bits (``10**30`` in a step) is
+    kept as its digits, a non-string key as text (issue 25: such a refusal lost its row)."""
+    try:
+        return orjson.dumps(value, default=str).decode()
+    except TypeError:
+        return orjson.dumps(_storable(value), default=str).decode()
+
+
+def _storable(value: Any) -> Any:
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, int):
+        return value if value in _INT_RANGE else str(value)
+    if isinstance(value, dict):
+        return {str(k): _storable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_storable(v) for v in value]
+    return value
+
+
+H = TypeVar("H")
+
+
+def opened(handle: H | None) -> H:
+    """A state store's ``handle`` (its connection, or pool) once the store is open."""
+    if handle is None:
+        raise RuntimeError("state store is not open")
+    return handle
 
 
 class StateStore:
@@ -83,7 +125,7 @@ class StateStore:
         db = await held(aiosqlite.connect(self.path, isolation_level=None))
         await held(db.execute("PRAGMA journal_mode=WAL"))
         await held(db.execute("PRAGMA synchronous=NORMAL"))
-        await held(db.executescript(_SCHEMA))
+        await held(db.executescript(SCHEMA))
         self._db = db
         return self
 
@@ -94,9 +136,7 @@ class StateStore:
 
     @property
     def db(self) -> aiosqlite.Connection:
-        if self._db is None:
-            raise RuntimeError("state store is not open")
-        return self._db
+        return opened(self._db)
 
     async def script(self, sql: str) -> None:
         """Run a script (a room's ``CREATE TABLE IF NOT EXISTS ...``)."""
@@ -132,6 +172,21 @@ class StateStore:
         finally:
             await held(cursor.close())
 
+    async def columns(self, table: str) -> set[str]:
+        """The names of ``table``'s columns (a room adding one to an older database)."""
+        if not table.isidentifier():
+            raise ValueError(f"not a table name: {table!r}")
+        return {row[1] for row in await self.rows(f"PRAGMA table_info({table})")}
+
+    async def problem(self) -> str | None:
+        """Why the store cannot be used now, or None (a file: its disk is watched instead)."""
+        return None
+
+    @property
+    def shared(self) -> bool:
+        """Whether other ground replicas may use the same state (a database server)."""
+        return False
+
     # -- drones --------------------------------------------------------------------------------
     async def save_drones(self, records: list[dict[str, Any]]) -> None:
         now = timestamp_s()
@@ -146,6 +201,21 @@ class StateStore:
     async def load_drones(self) -> list[dict[str, Any]]:
         rows = await self.rows("SELECT record FROM drones ORDER BY drone_id")
         return [orjson.loads(r[0]) for r in rows]
+
+    # -- the fleet's measured draw per airframe (ground/planner/airframe_draws.py) -------------
+    async def save_airframe_draws(self, rows: list[tuple[str, str, float]]) -> None:
+        """``(airframe, drone_id, amperes)``: what each drone was last measured to draw."""
+        now = timestamp_s()
+        await self.write_many(
+            "INSERT INTO airframe_draws (airframe, drone_id, draw_a, updated_at) "
+            "VALUES (?, ?, ?, ?) ON CONFLICT (airframe, drone_id) DO UPDATE SET "
+            "draw_a = excluded.draw_a, updated_at = excluded.updated_at",
+            [(*row, now) for row in rows],
+        )
+
+    async def load_airframe_draws(self) -> list[tuple[str, str, float]]:
+        rows = await self.rows("SELECT airframe, drone_id, draw_a FROM airframe_draws")
+        return [(str(a), str(d), float(w)) for a, d, w in rows]
 
     # -- tokens --------------------------------------------------------------------------------
     async def add_token(self, token_hash: str, name: str, role: str) -> None:
@@ -187,9 +257,9 @@ class StateStore:
             role,
             drone_id,
             command,
-            orjson.dumps(params, default=str).decode(),
+            _json(params),
             status,
-            orjson.dumps(answer, default=str).decode(),
+            _json(answer),
         )
 
         await self.write(

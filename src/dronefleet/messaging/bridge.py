@@ -41,6 +41,12 @@ KEPT_CHANNELS = frozenset({Channel.CONTROL, Channel.MISSION, Channel.GEAR, Chann
 MAX_QUEUED = 50_000
 
 
+#: The longest a drone's bridge waits between two attempts to reach the ground's broker
+#: (Mosquitto's ``restart_timeout`` cap, seconds): after the ground's broker comes back, a drone
+#: may be silent this long (the Drone Identifier allows for it: ground/identifier.py).
+BRIDGE_RESTART_MAX_S = 10.0
+
+
 def _quote_free(name: str, value: str) -> str:
     if not value or any(c.isspace() for c in value) or "#" in value:
         raise ValueError(f"{name} must be non-empty, without spaces or '#': {value!r}")
@@ -103,7 +109,7 @@ def bridge_config(
         "cleansession false",
         "local_cleansession false",
         "start_type automatic",
-        "restart_timeout 1 10",
+        f"restart_timeout 1 {BRIDGE_RESTART_MAX_S:g}",
         "keepalive_interval 10",
         f"max_queued_messages {max_queued}",
     ]

@@ -3,9 +3,14 @@
 - A **ground** service publishes only commands (``<any drone>/<channel>/in``) and its own
   ``ground/...`` topics, and subscribes only to what drones send (``<any>/<channel>/out``) and
   ``ground/...``. It cannot speak for a drone.
-- A **drone** speaks only for itself. On a shared broker (the embedded one, where a drone's own
-  parts talk to each other through it) it may use anything under ``<its id>/``; on the ground's
-  Mosquitto, which its bridge reaches, only ``<its id>/+/out`` out and ``<its id>/+/in`` in.
+- A **drone** speaks only for itself. On a shared broker (the embedded one) it may use anything
+  under ``<its id>/``. On the ground's broker (Mosquitto, which its bridge reaches or its parts
+  connect to straight; RabbitMQ, messaging/rabbit_acl.py) it has exactly what its own parts use
+  (:func:`drone_rights`): it publishes its messages, ``<its id>/+/out``, and the Drone
+  Controller's questions to its own Gear Manager, ``<its id>/gear/in`` (a ``takepic``); it
+  subscribes under ``<its id>/`` only: its requests (``+/in``), its Gear Manager's answers
+  (``gear/out``), its own progress for the fail-safe (``mission/out``) and, for the Logger,
+  everything of its own (``<its id>/#``).
 
 ``mosquitto_files`` writes the same rules as a Mosquitto password file and ACL file.
 """
@@ -13,7 +18,7 @@
 from __future__ import annotations
 
 from dronefleet.messaging.broker_users import BrokerRole, BrokerUser, BrokerUsers
-from dronefleet.messaging.topics import GROUND_PREFIX, Channel, Direction
+from dronefleet.messaging.topics import GROUND_PREFIX, Channel, Direction, check_drone_id
 
 _CHANNELS = frozenset(c.value for c in Channel)
 
@@ -26,25 +31,49 @@ def _drone_topic(levels: list[str], direction: Direction, *, wild: bool) -> bool
     return first_ok and (levels[1] in _CHANNELS or (wild and levels[1] == "+"))
 
 
-def _allowed(
-    user: BrokerUser, topic: str, ground: Direction, drone: Direction, *, wild: bool, shared: bool
-) -> bool:
+def drone_rights(drone_id: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(publish, subscribe) topic patterns of drone ``drone_id`` on the ground's broker: what
+    its own parts use (drone/controller.py, gear.py, mission_worker.py, failsafe.py,
+    logger.py), under its own id and nothing else."""
+    own = check_drone_id(drone_id)
+    publish = (f"{own}/+/{Direction.OUT}", f"{own}/{Channel.GEAR}/{Direction.IN}")
+    return publish, (f"{own}/#",)
+
+
+def _within(levels: list[str], pattern: list[str]) -> bool:
+    """Whether a topic (or a subscription filter) lies within an ACL ``pattern``, as Mosquitto
+    decides it: ``#`` covers the rest, ``+`` one level (a filter's ``+`` too)."""
+    for i, level in enumerate(levels):
+        if i >= len(pattern):
+            return False
+        if pattern[i] == "#":
+            return True
+        if pattern[i] != level and not (pattern[i] == "+" and level != "#"):
+            return False
+    return len(pattern) == len(levels) or pattern[len(levels) :] == ["#"]
+
+
+def _allowed(user: BrokerUser, topic: str, ground: Direction, *, wild: bool, shared: bool) -> bool:
     levels = topic.split("/")
     if user.role is BrokerRole.GROUND:
         return levels[0] == GROUND_PREFIX or _drone_topic(levels, ground, wild=wild)
+    if levels[0] != user.name or len(levels) < 2:
+        return False
     if shared:
-        return levels[0] == user.name and len(levels) > 1
-    return levels[0] == user.name and _drone_topic(levels, drone, wild=wild)
+        return True
+    publish, subscribe = drone_rights(user.name)
+    return any(_within(levels, p.split("/")) for p in (subscribe if wild else publish))
 
 
 def may_publish(user: BrokerUser, topic: str, *, shared: bool = True) -> bool:
-    """Ground: commands to any drone; drone: its own messages (``shared``: all its topics)."""
-    return _allowed(user, topic, Direction.IN, Direction.OUT, wild=False, shared=shared)
+    """Ground: commands to any drone; drone: its own messages and questions to its own gear
+    (``shared``: all its topics)."""
+    return _allowed(user, topic, Direction.IN, wild=False, shared=shared)
 
 
 def may_subscribe(user: BrokerUser, topic_filter: str, *, shared: bool = True) -> bool:
-    """Ground: what drones send; drone: its own requests (``shared``: all its topics)."""
-    return _allowed(user, topic_filter, Direction.OUT, Direction.IN, wild=True, shared=shared)
+    """Ground: what drones send; drone: topics under its own id."""
+    return _allowed(user, topic_filter, Direction.OUT, wild=True, shared=shared)
 
 
 def mosquitto_files(users: BrokerUsers) -> tuple[str, str]:
@@ -63,5 +92,7 @@ def mosquitto_files(users: BrokerUsers) -> tuple[str, str]:
                 f"topic readwrite {GROUND_PREFIX}/#",
             ]
         else:
-            acl += [f"topic write {u.name}/+/out", f"topic read {u.name}/+/in"]
+            publish, subscribe = drone_rights(u.name)
+            acl += [f"topic write {p}" for p in publish]
+            acl += [f"topic read {p}" for p in subscribe]
     return passwords, "\n".join(acl) + "\n"

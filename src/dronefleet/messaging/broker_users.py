@@ -2,8 +2,10 @@
 
 Passwords are random (24 bytes), handed out once, and kept only as Mosquitto's own hash
 (``$7$<iterations>$<salt>$<key>``: PBKDF2-HMAC-SHA512, base64; the format ``mosquitto_passwd``
-writes), so the same record serves the embedded broker (messaging/embedded_auth.py) and a
-Mosquitto password file (messaging/broker_acl.py) alike. Checked in constant time.
+writes), so the same record serves the in-process bus (messaging/local_bus.py) and a
+Mosquitto password file (messaging/broker_acl.py) alike. Checked in constant time. Beside it, the
+same password as RabbitMQ's hash (messaging/rabbit_acl.py) and as bcrypt, the one hash NATS reads
+(messaging/nats_config.py): no broker's configuration ever holds a password itself.
 """
 
 from __future__ import annotations
@@ -15,12 +17,25 @@ import secrets
 from dataclasses import dataclass
 from enum import StrEnum
 
+import bcrypt
+
 from dronefleet.errors import InvalidInput
 from dronefleet.messaging.topics import GROUND_PREFIX, check_drone_id
 
 #: PBKDF2 rounds; Mosquitto reads the count from each hash, so any value works with it.
 ITERATIONS = 1_000
 _SALT_BYTES = 12
+#: bcrypt costs (2**cost rounds) of the NATS hash. NATS checks it at every CONNECT, in the server,
+#: so the cost is paid per connection (bench/broker_capacity.py, 1000 drones): at cost 10 the
+#: server spent 58 s of CPU connecting them and dropped 153 that waited too long; at cost 4,
+#: 1.2 s, all connected in 0.8 s. Making the hashes costs as much again here (60 ms a user at
+#: 10). A generated password is 24 random bytes (192 bits), which no work factor needs to
+#: protect against guessing (the same reasoning as ITERATIONS): bcrypt's minimum. A password
+#: someone chose may be guessable, so it gets the usual cost.
+NATS_COST_GENERATED = 4
+NATS_COST_CHOSEN = 10
+#: bcrypt reads at most 72 bytes of a password; a longer one gets no NATS hash.
+BCRYPT_MAX_BYTES = 72
 
 
 class BrokerRole(StrEnum):
@@ -34,6 +49,7 @@ class BrokerUser:
     role: BrokerRole
     password_hash: str
     rabbit_hash: str | None = None  # RabbitMQ's form of the same password (rabbit_acl.py)
+    nats_hash: str | None = None  # bcrypt, for NATS (nats_config.py)
 
 
 def hash_password(password: str, *, salt: bytes | None = None) -> str:
@@ -48,6 +64,12 @@ def rabbit_hash(password: str, *, salt: bytes | None = None) -> str:
     a 32-bit salt (RabbitMQ's "Credentials and Passwords" guide), for its definitions file."""
     salt = salt if salt is not None else secrets.token_bytes(4)
     return base64.b64encode(salt + hashlib.sha256(salt + password.encode()).digest()).decode()
+
+
+def nats_hash(password: str, *, cost: int = NATS_COST_CHOSEN) -> str:
+    """bcrypt (``$2b$<cost>$...``), which NATS accepts in place of a password in its
+    configuration."""
+    return bcrypt.hashpw(password.encode(), bcrypt.gensalt(cost)).decode()
 
 
 def check_password(password: str, hashed: str) -> bool:
@@ -77,8 +99,12 @@ class BrokerUsers:
             check_drone_id(name)
         elif not name or ":" in name or name.startswith(GROUND_PREFIX + "/"):
             raise InvalidInput(f"bad broker user name {name!r}")
+        cost = NATS_COST_CHOSEN if password else NATS_COST_GENERATED
         password = password or new_password()
-        self._users[name] = BrokerUser(name, role, hash_password(password), rabbit_hash(password))
+        fits = len(password.encode()) <= BCRYPT_MAX_BYTES
+        nats = nats_hash(password, cost=cost) if fits else None
+        hashes = hash_password(password), rabbit_hash(password), nats
+        self._users[name] = BrokerUser(name, role, *hashes)
         return password
 
     def add_hashed(self, user: BrokerUser) -> None:

@@ -36,6 +36,7 @@ class Command(StrEnum):
     TAKEPIC = "takepic"
     RESETFC = "resetfc"
     REBUILDTELEMETRY = "rebuildtelemetry"
+    MODE = "mode"  # a flight mode the Drone Controller can choose (the console's selector)
     # Mission-only (Table 4.3) and our additions.
     WAIT_FOR_FLIGHT = "wait_for_flight"
     SLEEP = "sleep"
@@ -48,6 +49,16 @@ class AlarmLevel(StrEnum):
     CRITICAL = "CRITICAL"  # the drone must be replaced
     OUT_MEASURE = "OUT_MEASURE"  # a reading outside its bounds: collaboration requested
     WARNING = "WARNING"  # look now: e.g. two drones about to come too close (ground/separation)
+
+
+class SelectableMode(StrEnum):
+    """The flight modes an operator may choose for a drone (``mode`` command): the ones the
+    Drone Controller flies itself, on every backend. Manual modes stay with the RC pilot."""
+
+    GUIDED = "GUIDED"  # fly on to the goal (after a Hold): refused mid-mission unless forced
+    HOLD = "HOLD"  # stop and hold position: always obeyed (a mission is paused first)
+    LAND = "LAND"  # land where it is: always obeyed
+    RTL = "RTL"  # return to launch and land: always obeyed
 
 
 RequestId = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_\-]+$")]
@@ -99,6 +110,16 @@ class Rtl(_Request):
         description="land at the nearest of the mission's rally points instead, when one is "
         "nearer than home (a drone sent home early: abort, handover, lost)",
     )
+
+
+class SetMode(_Request):
+    """Switch the flight mode: HOLD stops and holds position, LAND lands where it is, RTL
+    returns home and lands, GUIDED flies on to the goal it held at."""
+
+    command: Literal[Command.MODE]
+    # The modes as text (a Literal, not the enum): the ground's strict request bodies take JSON
+    # strings, and the drone compares them with SelectableMode (a StrEnum) all the same.
+    value: Literal["GUIDED", "HOLD", "LAND", "RTL"] = Field(description="the flight mode to set")
 
 
 class Takeoff(_Request):
@@ -173,7 +194,8 @@ ControlRequest = Annotated[
     | Disarm
     | TakePic
     | ResetFc
-    | RebuildTelemetry,
+    | RebuildTelemetry
+    | SetMode,
     Field(discriminator="command"),
 ]
 
@@ -212,6 +234,7 @@ CONTROL_COMMANDS = frozenset(
         Command.TAKEPIC,
         Command.RESETFC,
         Command.REBUILDTELEMETRY,
+        Command.MODE,
     }
 )
 
@@ -251,5 +274,15 @@ class CommandResponse(Message):
     ok: bool
     error: str | None = None
     result: dict[str, Any] | None = None
+    #: Whether the command is carried out. False on the answer to a move that takes time (a
+    #: take-off, a goto, a landing): the drone sends the same ``request_id`` again with ``done``
+    #: true once it is there, landed or holding, or with ``ok`` false when it is not
+    #: (drone/command_watch.py). None: an answer from a drone that does not say.
+    done: bool | None = None
+    outcome: str | None = Field(
+        default=None,
+        max_length=40,
+        description="how a move ended: reached, landed, holding, superseded, timed out",
+    )
     timestamp: float = Field(default_factory=wall_time)
     vehicle_time_s: float | None = None

@@ -5,9 +5,10 @@ key, ``/`` turned into ``.`` (``QUAD_1/control/in`` is ``QUAD_1.control.in``; a 
 ``+`` is ``*``, ``#`` stays ``#``). Topic permissions (RabbitMQ 3.7+) are regular expressions over
 those keys, checked on every publish (write) and subscription (read); so:
 
-- a **drone** connects straight to the ground's RabbitMQ (it has no bridge there): it writes and
-  reads only keys under its own id, ``^<id>\\.`` (its parts talk to each other through it, as on
-  the embedded broker);
+- a **drone** connects straight to the ground's RabbitMQ (it has no bridge there) and has what
+  its parts use there, as on the ground's Mosquitto (``broker_acl.drone_rights``): it writes
+  ``<id>.<channel>.out`` and ``<id>.gear.in`` (the Drone Controller asks its own Gear Manager),
+  and reads only keys under its own id, ``^<id>\\.``;
 - a **ground** service writes only ``<any>.<channel>.in`` and ``ground.…``, reads only
   ``<any>.<channel>.out`` and ``ground.…``.
 
@@ -26,6 +27,7 @@ import re
 from typing import Any
 
 from dronefleet.errors import InvalidInput
+from dronefleet.messaging.broker_acl import drone_rights
 from dronefleet.messaging.broker_users import BrokerRole, BrokerUser, BrokerUsers
 from dronefleet.messaging.topics import GROUND_PREFIX, Channel
 
@@ -37,6 +39,15 @@ def _ground(direction: str) -> str:
     return rf"^([^.]+\.({_CHANNELS})\.{direction}|{GROUND_PREFIX}\..+)$"
 
 
+def _routing_keys(patterns: tuple[str, ...]) -> str:
+    """MQTT topic patterns as one regular expression over RabbitMQ routing keys (``/`` is ``.``;
+    a subscription's ``+`` arrives as ``*``, its ``#`` as ``#``): ``+`` is one level, ``#`` the
+    rest (at least one level)."""
+    levels = {"+": r"[^.]+", "#": r".+"}
+    keys = (r"\.".join(levels.get(p, re.escape(p)) for p in t.split("/")) for t in patterns)
+    return rf"^({'|'.join(keys)})$"
+
+
 def _rights(user: BrokerUser) -> tuple[dict[str, str], dict[str, str]]:
     """(resource permissions, topic permissions) of ``user``."""
     if user.role is BrokerRole.GROUND:
@@ -45,7 +56,8 @@ def _rights(user: BrokerUser) -> tuple[dict[str, str], dict[str, str]]:
     else:
         own = re.escape(user.name)
         queues = rf"mqtt-subscription-{own}-.+"
-        topics = {"write": rf"^{own}\..+$", "read": rf"^{own}\..+$"}
+        publish, subscribe = drone_rights(user.name)
+        topics = {"write": _routing_keys(publish), "read": _routing_keys(subscribe)}
     resources = {
         "configure": rf"^{queues}$",
         "write": rf"^({re.escape(EXCHANGE)}|{queues})$",
@@ -54,8 +66,21 @@ def _rights(user: BrokerUser) -> tuple[dict[str, str], dict[str, str]]:
     return resources, topics
 
 
+def _check_vhost(vhost: str) -> str:
+    if not vhost or ":" in vhost:
+        raise InvalidInput(f"vhost {vhost!r}: non-empty and without ':' (clients log in as V:USER)")
+    return vhost
+
+
+def rabbit_login(vhost: str, user: str) -> str:
+    """The MQTT user name of ``user`` in ``vhost``: ``vhost:user`` (RabbitMQ's MQTT adapter
+    splits it at the first ``:``; in a broker URL it is written ``vhost%3Auser``)."""
+    return f"{_check_vhost(vhost)}:{user}"
+
+
 def rabbitmq_definitions(users: BrokerUsers, vhost: str) -> dict[str, Any]:
     """A definitions document (``rabbitmqctl import_definitions``) for ``users`` in ``vhost``."""
+    _check_vhost(vhost)
     missing = [u.name for u in users.all() if not u.rabbit_hash]
     if missing:
         raise InvalidInput(

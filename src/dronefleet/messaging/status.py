@@ -43,6 +43,17 @@ class FlightParams(Message):
     land_speed_mps: float | None = Field(default=None, gt=0, le=20)
     land_alt_low_m: float | None = Field(default=None, ge=0, le=100)
     capacity_mah: float | None = Field(default=None, gt=0, le=1_000_000)
+    # How its autopilot flies home (issue 28): ArduPilot's RTL_ALT, RTL_SPEED, RTL_ALT_FINAL,
+    # RTL_LOIT_TIME, RTL_CONE_SLOPE, RTL_CLIMB_MIN and LAND_SPEED_HIGH (PX4: RTL_RETURN_ALT,
+    # RTL_LAND_DELAY), so the planner's estimate of the way home uses the vehicle's own values.
+    # Zero is a setting for the ``ge=0`` ones (no loiter, no cone, land at the end).
+    land_speed_high_mps: float | None = Field(default=None, gt=0, le=20)
+    rtl_alt_m: float | None = Field(default=None, gt=0, le=1_000)
+    rtl_speed_mps: float | None = Field(default=None, gt=0, le=50)
+    rtl_alt_final_m: float | None = Field(default=None, ge=0, le=1_000)
+    rtl_loiter_s: float | None = Field(default=None, ge=0, le=3_600)
+    rtl_cone_slope: float | None = Field(default=None, ge=0, le=10)
+    rtl_climb_min_m: float | None = Field(default=None, ge=0, le=1_000)
     #: A vehicle whose draw is known (our simulator) says so; any other is measured in flight.
     hover_current_a: float | None = Field(default=None, gt=0, le=1000)
     flight_current_a: float | None = Field(default=None, gt=0, le=1000)
@@ -61,6 +72,16 @@ class WindStatus(Message):
 
     speed_mps: float = Field(ge=0, le=100)
     from_deg: float = Field(ge=0, le=360)
+
+
+class LinkFailsafe(Message):
+    """What the autopilot does by itself when the drone's software falls silent: its GCS
+    failsafe (ArduPilot FS_GCS_ENABLE/FS_GCS_TIMEOUT, PX4 NAV_DLL_ACT/COM_DL_LOSS_T; issue 26,
+    drone/fc/mavlink/gcs_failsafe.py). Absent from a heartbeat when the backend has none."""
+
+    action: str = Field(min_length=1, max_length=40, description='"off", "rtl", "land", ...')
+    timeout_s: float | None = Field(default=None, ge=0, le=3600)
+    set_by_drone: bool = False
 
 
 class Heartbeat(Message):
@@ -86,6 +107,7 @@ class Heartbeat(Message):
     ground_speed_mps: float | None = Field(default=None, ge=0, le=200)
     gps: GpsStatus | None = None
     wind: WindStatus | None = None
+    link_failsafe: LinkFailsafe | None = None
 
 
 class Alarm(Message):

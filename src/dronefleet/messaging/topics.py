@@ -30,8 +30,11 @@ class Direction(StrEnum):
 #: Channels that only flow out of the drone.
 OUT_ONLY = frozenset({Channel.HEARTBEATS, Channel.ALARMS, Channel.TELEMETRY})
 
-#: A drone id: letters, digits, '_', '-', '.'; never an MQTT wildcard or separator.
-DRONE_ID_RE = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
+#: A drone id: 1-64 letters, digits, '_' or '-'; never an MQTT wildcard or separator, and valid
+#: on every supported broker: no '.', which RabbitMQ's MQTT adapter turns into a topic level
+#: separator (``QUAD.3/telemetry/out`` is routed as ``QUAD/3/telemetry/out``) and NATS refuses
+#: in the client ids made from it.
+DRONE_ID_RE = re.compile(r"^[A-Za-z0-9_\-]{1,64}$")
 
 GROUND_PREFIX = "ground"
 
@@ -43,11 +46,11 @@ class TopicError(InvalidInput, ValueError):
 def check_drone_id(drone_id: str) -> str:
     if (
         not isinstance(drone_id, str)
-        or not DRONE_ID_RE.match(drone_id)
+        or not DRONE_ID_RE.fullmatch(drone_id)  # fullmatch: no "ID\n"
         or drone_id == GROUND_PREFIX
     ):
         raise TopicError(
-            f"invalid drone id {drone_id!r}: use 1-64 letters, digits, '_', '-' or '.'"
+            f"invalid drone id {drone_id!r}: use 1-64 letters, digits, '_' or '-' (not 'ground')"
         )
     return drone_id
 

@@ -12,6 +12,8 @@ import struct
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from dronefleet.owner_only import open_private
+
 if TYPE_CHECKING:
     from dronefleet.sim.vehicle import SimVehicle
 
@@ -47,9 +49,10 @@ class SimCamera:
             "vehicle_time_s": vehicle.time_s,
         }
         if self._output_dir is not None:
-            self._output_dir.mkdir(parents=True, exist_ok=True)
             path = self._output_dir / f"{vehicle.vehicle_id}_{self._count:04d}.jpg"
-            path.write_bytes(geotagged_jpeg(position.lat, position.lon, position.alt_m))
+            # The drone's pictures are its owner's only (issue 25): 0600, folders made 0700.
+            with open_private(path) as out:
+                out.write(geotagged_jpeg(position.lat, position.lon, position.alt_m))
             info["file"] = str(path)
         return info
 

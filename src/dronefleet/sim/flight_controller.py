@@ -25,7 +25,6 @@ from dronefleet.vehicle.base import (
     GpsState,
     VehicleState,
     WindEstimate,
-    telemetry_sample,
 )
 from dronefleet.vehicle.kinematics import GRAVITY_MPS2
 from dronefleet.vehicle.views import flight_battery_state
@@ -172,7 +171,9 @@ class SimFlightController:
             await self._clock.sleep(period_s)
 
     def telemetry_sample(self) -> dict[str, float]:
-        return telemetry_sample(self, self.vehicle.time_s)
+        """:func:`~dronefleet.vehicle.base.telemetry_sample` of this controller (the vehicle
+        builds it from its state, figure for figure)."""
+        return self.vehicle.telemetry_sample()
 
     # -- UAVObject-like views (floats in SI units; lat/lon in degrees) -------------------------
     def _gps_position(self) -> dict[str, Any]:

@@ -79,6 +79,11 @@ class Battery:
         self.current_a = current_a
         self.consumed_mah += current_a * dt_s / 3.6  # A·s -> mAh
 
+    def swap(self) -> None:
+        """A fresh, full pack of the same kind in place of this one (a battery swap)."""
+        self.initial_charge_pct = 100.0
+        self.consumed_mah = 0.0
+
     # -- readings -----------------------------------------------------------------------------
     @property
     def remaining_pct(self) -> float:

@@ -15,7 +15,7 @@ from dronefleet.drone.takeover import SOMEONE_ELSE
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.simfleet import SimFleet
-from support.drones import Operator
+from support.drones import Operator, until_mid_leg
 
 pytestmark = pytest.mark.integration
 HOME = LLA(40.63, -8.659, 10.0)
@@ -43,6 +43,7 @@ async def test_an_rc_pilots_hold_pauses_the_mission_and_a_resume_finishes_it(emb
         vehicle = fleet.world.vehicles["QUAD_T"]
         await op.send_mission("QUAD_T", mission_id="t1", steps=steps)
         await op.wait_for(lambda: len(events(op, "t1", "step")) >= 4, timeout_s=60)
+        await until_mid_leg(vehicle)
         taken_at = fleet.clock.now()
         vehicle.hold()  # the pilot's mode switch: not the drone software's choice
         (paused,) = await op.wait_for(lambda: events(op, "t1", "paused"), timeout_s=20)
@@ -70,6 +71,7 @@ async def test_a_vehicle_landed_by_someone_else_stays_paused_until_stopped(embed
         vehicle = fleet.world.vehicles["QUAD_L"]
         await op.send_mission("QUAD_L", mission_id="t2", steps=line(4))
         await op.wait_for(lambda: len(events(op, "t2", "step")) >= 4, timeout_s=60)
+        await until_mid_leg(vehicle)
         vehicle.land()
         await op.wait_for(lambda: events(op, "t2", "paused"), timeout_s=20)
         while vehicle.armed:

@@ -9,6 +9,7 @@ stranger, and the drone's credentials used to command another drone, are refused
 
 from __future__ import annotations
 
+import getpass
 import secrets
 import stat
 import subprocess
@@ -40,7 +41,8 @@ def test_generated_credentials_let_the_fleet_in_and_keep_strangers_out(tmp_path)
         cli("credentials", "add-drone", drone, "--state", str(state),
             "--password-file", str(tmp_path / f"{drone}.secret"))  # fmt: skip
     out = tmp_path / "broker"
-    cli("broker-config", "--state", str(state), "--out", str(out))
+    # The test's Mosquitto runs as us (support/brokers.py: user root), not as mosquitto.
+    cli("broker-config", "--state", str(state), "--out", str(out), "--owner", getpass.getuser())
     for name in ("passwd", "acl", "../ground.secret", "../QUAD_1.secret"):
         assert stat.S_IMODE((out / name).stat().st_mode) == 0o600, name
     secret = (tmp_path / "QUAD_1.secret").read_text().strip()

@@ -13,20 +13,28 @@ from support.ground_fakes import FakeDrone, eventually
 pytestmark = pytest.mark.integration
 
 
-def hb(drone_id="Q1", interval_s=5.0):
+def hb(drone_id="Q1", interval_s=5.0, vehicle_s=0.0, sent=100.0):
     return LenientHeartbeat.model_validate(
-        {**FakeDrone(("x", 1), drone_id).heartbeat(), "interval_s": interval_s, "future": 1}
+        {
+            **FakeDrone(("x", 1), drone_id).heartbeat(),
+            "interval_s": interval_s,
+            "vehicle_time_s": vehicle_s,
+            "timestamp": sent,
+            "future": 1,
+        }
     )
 
 
-def test_lost_after_three_observed_intervals_and_online_on_the_next():
+def test_lost_after_three_declared_intervals_at_the_drones_rate_and_online_on_the_next():
     record = DroneRecord.first(hb(), now=100.0)
-    assert record.deadline() == 115.0  # only interval_s known: 3 x 5 s
-    record.observe(hb(), now=100.5)  # a 10x sped-up drone: 0.5 s of wall time per heartbeat
-    assert record.deadline() == pytest.approx(102.5)  # 3 x 0.5 s is under the 2 s floor
-    assert record.deadline(10.0) == pytest.approx(110.5)  # dronefleet ground --lost-after 10
+    assert record.lost_after_s() == 15.0  # its rate not known yet: 3 x 5 s
+    # A 10x sped-up drone: 5 vehicle s between heartbeats, 0.5 s of its wall clock.
+    record.observe(hb(vehicle_s=5.0, sent=100.5), now=100.5)
+    assert record.clock_rate == pytest.approx(10.0)
+    assert record.lost_after_s() == pytest.approx(2.0)  # 3 x 0.5 s is under the 2 s floor
+    assert record.lost_after_s(10.0) == pytest.approx(10.0)  # dronefleet ground --lost-after 10
     record.status = DroneStatus.LOST
-    assert record.observe(hb(), now=140.0) is True  # back
+    assert record.observe(hb(vehicle_s=400.0, sent=140.0), now=140.0) is True  # back
     assert record.status is DroneStatus.ONLINE
     assert record.heartbeat_interval_s == pytest.approx(0.5)  # the outage gap is not a rate
 
@@ -51,7 +59,7 @@ async def test_the_fleet_is_kept_and_answered_over_the_broker(broker, tmp_path):
         await eventually(lambda: record.specs and record.sensors)
         fleet = await gateway.fleet()
         assert fleet[0]["drone_id"] == "Q1" and fleet[0]["specs"]["frame"] == "quad"
-        # Liveness uses the observed heartbeat rate: wait until it has been measured.
+        # Liveness uses the drone's rate, read from its stamps: wait until it is known.
         await eventually(lambda: record.heartbeat_interval_s < 1.0)
         await drone.stop()
         await eventually(lambda: record.status is DroneStatus.LOST, timeout_s=4)

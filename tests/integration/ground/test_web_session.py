@@ -36,7 +36,8 @@ async def _new_token(ground, name: str, role: str) -> str:
 @contextlib.asynccontextmanager
 async def _signed_in(ground, token: str) -> AsyncIterator[tuple[httpx.AsyncClient, httpx.Response]]:
     """A browser-like client that has traded ``token`` for the session cookie."""
-    async with httpx.AsyncClient(base_url=ground.http_url, timeout=10) as client:
+    # 30 s: the first preview starts the planning worker's process, slow on a loaded machine.
+    async with httpx.AsyncClient(base_url=ground.http_url, timeout=30) as client:
         bearer = {"Authorization": f"Bearer {token}"}
         yield client, await client.post("/api/v1/session", headers=bearer)
 

@@ -110,7 +110,10 @@ async def test_the_fence_and_rally_points_are_on_board_before_the_mission_flies(
 
             # A mission without them clears what this drone put there.
             await op.send_mission("FENCED", mission_id="fe2", steps=short_flight())
-            await op.wait_for(lambda: events(op, "fe2", "completed"), timeout_s=90)
+            (end,) = await op.wait_for(
+                lambda: events(op, "fe2", "completed") or events(op, "fe2", "failed"), timeout_s=90
+            )
+            assert end["event"] == "completed", end  # a failure says why, not a timeout
             cleared = (len(transfer.stored[FENCE]), len(transfer.stored[RALLY]),
                        copter.params.get("FENCE_ENABLE"))  # fmt: skip
         finally:

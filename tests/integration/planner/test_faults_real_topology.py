@@ -209,9 +209,11 @@ def test_a_fault_comes_and_goes_and_the_mission_completes_with_every_report(
     with Rig(tmp_path, [drone_id], speedup=5 if link else 10, link=link) as rig:
         mission_id = rig.start_mission(mission([drone_id]))
         before = rig.until(mission_id, timeout_s=90, done=2 + 2 * 3)
-        # Over the lossy link a drone goes unheard for seconds at times: its mission is then
-        # stalled (not failed) until it is heard again.
-        assert before["state"] in (("running", "stalled") if link else ("running",)), before
+        # Over the slow, lossy link reports come late and in bursts (the last of them may close
+        # the mission before 8 steps were ever seen done); a drone unheard there for a while
+        # would have its mission stalled (not failed) until it is heard again.
+        slow = ("running", "stalled", "completed")
+        assert before["state"] in (slow if link else ("running",)), before
         if fault == "ground-broker":
             rig.ground_broker.stop(kill=True)
             time.sleep(OUTAGE_WALL_S)
@@ -279,9 +281,19 @@ def test_the_ground_killed_right_after_a_replacement_alarm_finishes_the_handover
         time.sleep(OUTAGE_WALL_S)
         rig.start_ground()
         after = rig.until(mission_id, timeout_s=120)
-        assert_whole(rig, mission_id, after)
-    (handover,) = after["handovers"]
-    assert handover["from_drone"] == first and handover["to_drone"] == spare
+        log = assert_whole(rig, mission_id, after)
+    (handover,) = after["handovers"]  # decided once, whether the alarm came again or not
+    assert handover["from_drone"] == first
+    # Assigned once the alarmed drone had accepted its way home (issue 26), so from what it had
+    # really not flown: the spare flies the rest, or nobody if it flew it all meanwhile.
+    assert handover["to_drone"] == (spare if handover["remaining_steps"] else None), handover
+    waypoints = [
+        s["index"]
+        for d in log["drones"]
+        for s in d["steps"]
+        if s["index"] is not None and log["work"][s["index"]]["command"] == "wait_for_flight"
+    ]
+    assert sorted(waypoints) == sorted(set(waypoints))  # none reached twice
 
 
 def test_a_drone_restarted_mid_mission_loses_no_report_and_its_rest_is_taken_over(

@@ -238,11 +238,18 @@ async def test_a_fly_through_surveys_triggered_pictures_all_reach_the_gallery(
             mission_id = detail["mission_id"]
             on_drone = sorted((tmp_path / "drone-logs" / "pictures").glob("*.jpg"))
 
+            seen: list = []
+
             async def all_kept():
                 got = (await api.get(f"/api/v1/missions/{mission_id}/photos")).json()
+                seen[:] = [(p["file"], p["stored"], p.get("error")) for p in got]
                 return got if len(got) == len(on_drone) and all(p["stored"] for p in got) else None
 
-            photos = await until(all_kept, 30)
+            try:
+                photos = await until(all_kept, 30)
+            except AssertionError as exc:
+                raise AssertionError(f"{exc}: on the drone {[f.name for f in on_drone]}, "
+                                     f"listed {seen}") from None  # fmt: skip
             last = await api.get(f"/api/v1/missions/{mission_id}/photos/{len(photos)}")
 
     assert not any(s["command"] == "takepic" for s in detail["work"])

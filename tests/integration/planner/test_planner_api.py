@@ -73,6 +73,8 @@ async def test_preview_gives_waypoints_time_and_battery(platform):
     (share,) = body["drones"]
     assert share["drone_id"] == "FULL" and share["duration_s"] > 30
     assert 0 < share["battery_used_pct"] < 20
+    # One drone flies the whole area: its route is every waypoint, in the order flown.
+    assert share["waypoints"] == body["waypoints"]
 
 
 @pytest.mark.parametrize(

@@ -14,7 +14,7 @@ import pytest
 from dronefleet.experiments.harness import ORIGIN, Harness
 from dronefleet.geo.types import NED
 from dronefleet.ground.planner.launch import MissionOptions
-from support.missions import fly_with_a_spare, small_field_steps
+from support.missions import fly_with_a_spare, restart_ground_after, small_field_steps
 
 pytestmark = [pytest.mark.integration, pytest.mark.virtual_time]
 
@@ -76,16 +76,14 @@ async def test_a_replacement_decided_just_before_the_ground_died_is_finished_aft
         await asyncio.Event().wait()  # the ground is killed here
 
     monkeypatch.setattr(replacement, "_hand_over", dies_here)
-    async with Harness(speedup=10) as h:
-        mission_id = await fly_with_a_spare(
-            h, small_field_steps("CRITICAL"), ON_ALARM, spare_at=NED(77, 70), hovering_m=10
-        )
-        async with asyncio.timeout(60):
-            await decided.wait()
-        await h.stop_ground()
+
+    async def undone() -> None:
         monkeypatch.undo()
-        await h.start_ground()
-        record = await h.until_ended(mission_id, timeout_s=120)
+
+    async with Harness(speedup=10) as h:
+        record = await restart_ground_after(
+            h, ON_ALARM, decided, while_down=undone, wait_s=60, ended_s=120
+        )
 
     assert record.state.value == "completed", record.error
     assert len(record.handovers) == 1 and record.handovers[0].to_drone == "QUAD_B"

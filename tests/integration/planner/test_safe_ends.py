@@ -74,7 +74,7 @@ async def test_a_drone_handed_over_early_goes_home_and_so_does_its_replacement()
     taking = record.leg(handover.to_leg)
     assert leaving is not None and taking is not None
     assert [s["command"] for s in leaving.suffix] == ["rtl", "wait_for_flight"]
-    # Its way home may fly on a layer above the RTL height (ground/planner/deconflict.py),
+    # Its way home may fly on a layer above the RTL height (ground/planner/deconflict/),
     # the other drone going home too: then a climb there first.
     commands = [s["command"] for s in taking.suffix]
     assert commands in (

@@ -15,6 +15,7 @@ import contextlib
 import os
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -59,11 +60,11 @@ def ground(tmp_path) -> Iterator[Ground]:
 
 @pytest.fixture
 def fly(ground, sitl_binary, tmp_path):
-    """``fly(drone_id, *drone_args, params={...})``: a SITL vehicle (with those parameters) and
-    ``dronefleet drone`` on it, online and ready to arm."""
+    """``fly(drone_id, *drone_args, params={...}, home=(lat, lon, alt))``: a SITL vehicle (with
+    those parameters, there) and ``dronefleet drone`` on it, online and ready to arm."""
     with contextlib.ExitStack() as stack:
 
-        def start(drone_id: str, *extra: str, params: dict[str, float] | None = None) -> Vehicle:
-            return fly_drone(stack, ground, sitl_binary, tmp_path, drone_id, *extra, params=params)
+        def start(drone_id: str, *extra: str, **vehicle: Any) -> Vehicle:
+            return fly_drone(stack, ground, sitl_binary, tmp_path, drone_id, *extra, **vehicle)
 
         yield start

@@ -25,6 +25,9 @@ def home_of(drone: dict) -> LLA:
 
 
 def step_mission(home: LLA, legs: list[tuple[float, float]]) -> list[dict]:
+    """Waypoints at ALT_M; the planner ends them as it ends every mission (home by RTL, its
+    default: issue 28 — these tests once ended with a land of their own, and so never saw
+    the default end)."""
     steps: list[dict] = []
     for n, e in legs:
         p = ned_to_lla(NED(n, e, 0), home)
@@ -32,7 +35,7 @@ def step_mission(home: LLA, legs: list[tuple[float, float]]) -> list[dict]:
             {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": ALT_M},
             {"command": "wait_for_flight"},
         ]
-    return [*steps, {"command": "land"}, {"command": "wait_for_flight"}]
+    return steps
 
 
 def highest_m(ground, mission_id: str) -> dict[str, float]:
@@ -55,8 +58,12 @@ def test_the_planners_step_mission_takes_off_and_completes(ground, fly, strategy
     }
     mission = ground.run_mission(spec)
     assert mission["state"] == "completed", mission.get("error")
-    assert mission["waypoints_reached"] == mission["waypoints"] == 6
+    assert mission["waypoints_reached"] == mission["waypoints"] == 5
     assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2
+    drone = ground.drone("SITL_1")  # home and down (the default end), disarmed by ArduPilot
+    assert drone["state"] == "disarmed", drone["state"]
+    here = drone["position"]
+    assert lla_to_ned(LLA(here["lat"], here["lon"], home.alt_m), home).horizontal_m < 5.0
 
 
 def test_an_area_split_over_two_vehicles_flies_with_both_airborne(ground, fly):
@@ -82,7 +89,9 @@ def test_an_area_split_over_two_vehicles_flies_with_both_airborne(ground, fly):
 
 
 def test_an_onboard_step_mission_is_started_and_flown_by_ardupilot(ground, fly):
-    # Before: MISSION_START carried a first item, which Copter denies (GCS_MAVLink_Copter.cpp).
+    # Before: MISSION_START carried a first item, which Copter denies (GCS_MAVLink_Copter.cpp);
+    # and (issue 28) the default end, rtl, had no on-board form: the mission silently flew from
+    # the companion computer. Now it flies in AUTO to the end, NAV_RETURN_TO_LAUNCH included.
     fly("SITL_1")
     home = home_of(ground.drone("SITL_1"))
     spec = {
@@ -93,8 +102,14 @@ def test_an_onboard_step_mission_is_started_and_flown_by_ardupilot(ground, fly):
     }
     mission = ground.run_mission(spec)
     assert mission["state"] == "completed", mission.get("error")
-    assert mission["waypoints_reached"] == mission["waypoints"] == 4
+    assert mission["waypoints_reached"] == mission["waypoints"] == 3
     assert highest_m(ground, mission["mission_id"])["SITL_1"] > ALT_M - 2
+    record = ground.api("GET", f"/api/v1/missions/{mission['mission_id']}").json()
+    assert record["legs"][0]["flown_by"] == "autopilot"
+    drone = ground.drone("SITL_1")
+    assert drone["state"] == "disarmed", drone["state"]
+    here = drone["position"]
+    assert lla_to_ned(LLA(here["lat"], here["lon"], home.alt_m), home).horizontal_m < 5.0
 
 
 def test_an_operator_rtl_brings_the_copter_home_and_down(ground, fly):

@@ -17,7 +17,7 @@ from dronefleet.geo.types import LLA, NED
 from dronefleet.messaging.embedded import EmbeddedBroker
 from dronefleet.sim.uavtalk import UAVTalkServer
 from dronefleet.sim.world import SimWorld
-from support.drones import Operator, drone_process
+from support.drones import Operator, drone_process, until_mid_leg
 
 pytestmark = pytest.mark.integration
 
@@ -51,6 +51,7 @@ async def test_a_flight_mode_set_by_someone_else_pauses_the_mission_over_uavtalk
 
                 await op.send_mission("QUAD_UK", mission_id="uk", steps=steps)
                 await op.wait_for(lambda: len(events("step")) >= 4, timeout_s=90)
+                await until_mid_leg(vehicle)
                 taken_at = world.clock.now()
                 vehicle.hold()  # the pilot's switch: FlightStatus.FlightMode becomes HOLD
                 (paused,) = await op.wait_for(lambda: events("paused"), timeout_s=20)

@@ -162,3 +162,42 @@ async def test_a_drone_turning_for_its_next_waypoint_is_foreseen_going_there(mon
 def goal(n: float, e: float, up: float) -> dict[str, float]:
     p = ned_to_lla(NED(n, e, -up), ORIGIN)
     return {"goal_lat": p.lat, "goal_lon": p.lon, "goal_alt_m": p.alt_m}
+
+
+async def test_a_message_is_compared_only_with_the_drones_near_it_whatever_the_fleet(
+    monitor,
+) -> None:
+    """Issue 27: the cost per message is flat in the fleet's size (a neighbour grid)."""
+    mon, _, _ = monitor
+    compared = []
+    for count in (10, 1000):
+        for kept in (mon.tracks, mon._grid, mon._cube_of, mon._partners, mon.encounters):
+            kept.clear()
+        for i in range(count):  # a fleet on a 300 m grid, every drone in the air
+            await feed(mon, f"D{i}", 300.0 * (i // 40), 300.0 * (i % 40), 20)
+        before = mon.status().pairs_compared
+        await feed(mon, "NEW", 2.0, 2.0, 20)  # beside D0, the others 300 m and more away
+        compared.append(mon.status().pairs_compared - before)
+    assert compared[0] == compared[1] and 1 <= compared[1] <= 4, compared
+
+
+async def test_neighbours_across_the_antimeridian_are_found(monitor) -> None:
+    mon, sent, _ = monitor
+    west = {"drone_id": "W", "vehicle_time_s": 1.0,
+            "fields": {"lat": -16.5, "lon": 179.99999, "alt_m": 20.0, "in_air": 1.0}}  # fmt: skip
+    east = {"drone_id": "E", "vehicle_time_s": 1.0,
+            "fields": {"lat": -16.5, "lon": -179.99999, "alt_m": 20.0, "in_air": 1.0}}  # fmt: skip
+    await mon._on_telemetry("W/telemetry/out", orjson.dumps(west))
+    await mon._on_telemetry("E/telemetry/out", orjson.dumps(east))
+    assert [a.level.value for a in sent] == ["CRITICAL"]  # about 2 m apart
+
+
+async def test_an_encounter_ends_when_the_pair_has_drifted_beyond_the_grid(monitor) -> None:
+    mon, _, clock = monitor
+    await feed(mon, "A", 0, 0, 10)
+    await feed(mon, "B", 0, 3, 10)
+    assert mon.status().active == ["A/B"]
+    await feed(mon, "B", 0, 2000, 10)  # far beyond the 27 cubes around A
+    clock.now += CLEAR_S + 0.1
+    await feed(mon, "A", 0, 0, 10)
+    assert mon.status().active == []

@@ -2,7 +2,12 @@
 
 import pytest
 
-from dronefleet.messaging.broker_acl import may_publish, may_subscribe
+from dronefleet.messaging.broker_acl import (
+    drone_rights,
+    may_publish,
+    may_subscribe,
+    mosquitto_files,
+)
 from dronefleet.messaging.broker_users import (
     BrokerRole,
     BrokerUser,
@@ -23,7 +28,10 @@ QUAD_1 = BrokerUser("QUAD_1", BrokerRole.DRONE, "")
         (GROUND, "ground/planner/events", True, True),
         (GROUND, "+/control/in", True, False),
         (QUAD_1, "QUAD_1/alarms/out", False, True),
-        (QUAD_1, "QUAD_1/control/in", False, False),  # on the ground's broker: out only
+        (QUAD_1, "QUAD_1/control/in", False, False),  # on the ground's broker: out only,
+        (QUAD_1, "QUAD_1/gear/in", False, True),  # and its controller asking its own gear
+        (QUAD_1, "QUAD_2/gear/in", False, False),
+        (QUAD_1, "QUAD_1/gear/out/x", False, False),
         (QUAD_1, "QUAD_1/gear/in", True, True),  # on a shared broker its parts talk
         (QUAD_1, "QUAD_2/control/in", True, False),
         (QUAD_1, "ground/presence/x", True, False),
@@ -41,7 +49,12 @@ def test_who_may_publish(user, topic, shared, ok):
         (GROUND, "+/control/in", True, False),  # no listening to other clients' commands
         (GROUND, "#", True, False),
         (QUAD_1, "QUAD_1/+/in", False, True),
-        (QUAD_1, "QUAD_1/telemetry/out", False, False),
+        (QUAD_1, "QUAD_1/gear/out", False, True),  # its Gear Manager's answers (a takepic)
+        (QUAD_1, "QUAD_1/mission/out", False, True),  # its fail-safe follows its progress
+        (QUAD_1, "QUAD_1/#", False, True),  # its Logger
+        (QUAD_1, "QUAD_2/gear/out", False, False),
+        (QUAD_1, "+/gear/out", False, False),
+        (QUAD_1, "#", False, False),
         (QUAD_1, "+/control/in", True, False),
         (QUAD_1, "#", True, False),
     ],
@@ -61,3 +74,17 @@ def test_passwords_are_kept_as_mosquitto_hashes_and_checked():
     assert users.authenticate("QUAD_1", None) is None and users.authenticate(None, None) is None
     with pytest.raises(ValueError):
         users.add("<img>", BrokerRole.DRONE)
+
+
+def test_the_mosquitto_acl_gives_a_drone_what_its_parts_use_under_its_id_only():
+    users = BrokerUsers()
+    users.add("QUAD_1", BrokerRole.DRONE)
+    _, acl = mosquitto_files(users)
+    rules = acl.split("user QUAD_1\n", 1)[1].strip().splitlines()
+    assert rules == [
+        "topic write QUAD_1/+/out",
+        "topic write QUAD_1/gear/in",
+        "topic read QUAD_1/#",
+    ]
+    publish, subscribe = drone_rights("QUAD_1")
+    assert [f"topic write {p}" for p in publish] + [f"topic read {p}" for p in subscribe] == rules

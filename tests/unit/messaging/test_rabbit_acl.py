@@ -8,7 +8,7 @@ import pytest
 
 from dronefleet.errors import InvalidInput
 from dronefleet.messaging.broker_users import BrokerRole, BrokerUser, BrokerUsers, rabbit_hash
-from dronefleet.messaging.rabbit_acl import rabbitmq_definitions
+from dronefleet.messaging.rabbit_acl import rabbit_login, rabbitmq_definitions
 
 
 def test_the_hash_is_rabbitmqs_sha256_form() -> None:
@@ -29,6 +29,11 @@ def test_each_user_gets_only_its_own_routing_keys() -> None:
         return re.fullmatch(pattern, key) is not None
 
     assert ok(drone["write"], "QUAD_1.telemetry.out") and ok(drone["read"], "QUAD_1.control.in")
+    # A takepic: the controller asks its Gear Manager and hears the answer; its Logger hears all.
+    assert ok(drone["write"], "QUAD_1.gear.in") and ok(drone["read"], "QUAD_1.gear.out")
+    assert ok(drone["read"], "QUAD_1.#") and ok(drone["read"], "QUAD_1.*.in")
+    assert not ok(drone["write"], "QUAD_1.control.in")  # no commands to itself
+    assert not ok(drone["read"], "QUAD_2.gear.out") and not ok(drone["write"], "QUAD_2.gear.in")
     assert not ok(drone["write"], "QUAD_2.control.in") and not ok(drone["read"], "QUAD_2.gear.in")
     assert not ok(drone["write"], "QUAD_10.control.in")  # not a prefix match
     assert ok(ground["write"], "QUAD_2.control.in") and ok(ground["read"], "*.heartbeats.out")
@@ -43,3 +48,11 @@ def test_users_without_a_rabbitmq_hash_are_named() -> None:
     users.add_hashed(BrokerUser("QUAD_OLD", BrokerRole.DRONE, "$7$1$x$y"))
     with pytest.raises(InvalidInput, match="QUAD_OLD"):
         rabbitmq_definitions(users, "fleet")
+
+
+def test_a_vhost_with_a_colon_is_refused_and_logins_are_vhost_colon_user() -> None:
+    users = BrokerUsers()
+    users.add("QUAD_1", BrokerRole.DRONE)
+    assert rabbit_login("fleet", "QUAD_1") == "fleet:QUAD_1"
+    with pytest.raises(InvalidInput, match="':'"):
+        rabbitmq_definitions(users, "fleet:a")

@@ -25,9 +25,13 @@ def test_out_only_channels_have_no_in_topic():
         topics.topic("R", Channel.HEARTBEATS, Direction.IN)
 
 
-@pytest.mark.parametrize("bad", ["", "a/b", "+", "#", "ground", "x" * 65, "sp ace"])
+@pytest.mark.parametrize(
+    "bad", ["", "a/b", "+", "#", "ground", "x" * 65, "sp ace", "QUAD.3", "Q_1\n", "Q:1"]
+)
 def test_drone_ids_never_contain_wildcards_or_separators(bad):
-    with pytest.raises(TopicError):
+    """Nor '.': RabbitMQ's MQTT adapter takes it for a level separator (``QUAD.3/telemetry/out``
+    is routed as ``QUAD/3/telemetry/out``) and NATS refuses it in a client id."""
+    with pytest.raises(TopicError, match="letters, digits, '_' or '-'"):
         topics.topic(bad, Channel.CONTROL, Direction.IN)
 
 

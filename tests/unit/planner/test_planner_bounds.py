@@ -22,7 +22,7 @@ from shapely.geometry import LineString, Point, Polygon
 from dronefleet.geo.ned import LocalFrame
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.planner import allocation
-from dronefleet.ground.planner.coverage import AreaSpec, CoveragePlan, path, plan_area
+from dronefleet.ground.planner.coverage import AreaSpec, CoveragePlan, plan_area, uncovered
 from dronefleet.ground.planner.coverage.angle import AngleChooser
 from dronefleet.ground.planner.coverage.clip import clip, edges_of
 from dronefleet.ground.planner.coverage.router import InAreaRouter, _reflex_corners
@@ -261,12 +261,12 @@ def test_the_prefix_reach_agrees_with_the_interval_sweep(fly):
 @SETTINGS
 @given(st.integers(0, 2**31 - 1), st.integers(1, 400))
 def test_the_farthest_sample_is_the_one_measuring_every_sample_finds(seed, count):
-    """The gap filler measures one boundary sample in 16 and bounds the rest (path._farthest)."""
+    """The gap filler measures one boundary sample in 16 and bounds the rest (_farthest)."""
     rng = np.random.default_rng(seed)
     walk = np.cumsum(rng.normal(0.0, 0.05, size=(count, 2)), axis=0)  # samples a few cm apart
     route = LineString(rng.uniform(-2, 2, size=(int(rng.integers(2, 8)), 2)))
     every = shapely.distance(shapely.points(walk), route)
-    k, far = path._farthest(walk, route)
+    k, far = uncovered._farthest(walk, route)
     assert k == int(np.argmax(every)) and far == every.max()
 
 

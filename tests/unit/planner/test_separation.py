@@ -1,5 +1,5 @@
 """Predicted separation at acceptance (ground/planner/trajectory.py, separation.py,
-deconflict.py): crossing paths are caught, parallel swaths 8 m apart are fine, drones taking
+deconflict/): crossing paths are caught, parallel swaths 8 m apart are fine, drones taking
 off side by side are handled, and every deconflicted plan re-checks clean."""
 
 from __future__ import annotations

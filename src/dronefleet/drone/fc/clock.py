@@ -7,6 +7,15 @@ stamps most messages with its boot time; this clock interpolates between those s
 it observes (vehicle seconds per wall second), so ``now()`` is smooth and ``sleep(d)`` returns once
 the autopilot's own time has advanced by ``d``. A reboot restarts ``time_boot_ms`` at zero; the
 clock adds the time before the reboot so that its ``now()`` never runs backwards.
+
+Across a silence (the autopilot's link lost: no stamp for :data:`_GAP_WALL_S`) ``now()`` runs on
+at the last rate, and what it said stays said: the first stamp after the silence takes the clock
+on from there (issue 26). Before, a reboot made the clock add only the boot time seen before
+the silence, so it stood still until the new boot time caught up with what it had already
+reported: a drone whose autopilot rebooted mid-flight sent no heartbeat for as long as the
+autopilot had been away (heartbeats wait on this clock), and was called lost. A reboot that is
+not seen as a step back (the autopilot was away longer than it had been up) is caught the same
+way: the stamp after the silence is behind what the clock said.
 """
 
 from __future__ import annotations
@@ -25,6 +34,9 @@ _REBOOT_JUMP_S = 1.0
 _EXPECTED_JUMP_S = 0.01
 #: Longest wall sleep between looks at the clock (the rate may change meanwhile).
 _MAX_WALL_NAP_S = 0.05
+#: No stamp for this long (wall seconds) is a silence: the link was lost, or the autopilot
+#: rebooted; the clock ran on meanwhile, and goes on from where it was.
+_GAP_WALL_S = 1.5
 
 
 class AutopilotClock:
@@ -58,11 +70,23 @@ class AutopilotClock:
         """Take a time since boot, in seconds, received at ``wall`` (monotonic)."""
         wall = monotonic() if wall is None else wall
         jump = _EXPECTED_JUMP_S if self._expect_reboot else _REBOOT_JUMP_S
-        if self._last_boot_s is not None and boot_s < self._last_boot_s - jump:
+        last = self._last_boot_s
+        # What the clock has been saying since the last stamp, at the last rate.
+        ran_on = self._base_s + max(0.0, wall - self._last_wall) * self._rate
+        if last is not None and boot_s < last - jump:  # rebooted: boot time starts again
             self._expect_reboot = False
-            self._offset_s += self._last_boot_s
+            # On from the time before the reboot, or from where the clock ran on to through
+            # a silence, less the boot time since (never back: heartbeats wait on it).
+            self._offset_s = max(self._offset_s + last, ran_on - boot_s)
             self._samples.clear()
             self.boot_count += 1
+        elif (
+            last is not None
+            and wall - self._last_wall > _GAP_WALL_S
+            and self._offset_s + boot_s < ran_on - _REBOOT_JUMP_S
+        ):  # after a silence, behind what was said: on from there
+            self._offset_s = ran_on - boot_s
+            self._samples.clear()
         self._last_boot_s = boot_s
         t = self._offset_s + boot_s
         samples = self._samples

@@ -1,11 +1,13 @@
 """The Drone Manager's FastAPI application: routes, error shapes, OpenAPI docs at ``/docs``."""
 
-from fastapi import FastAPI
+from fastapi import FastAPI, Response
 
 from dronefleet import __version__
 from dronefleet.ground.manager import (
     admin,
+    alarms,
     control,
+    docs,
     drones,
     errors,
     maps,
@@ -34,6 +36,8 @@ def create_app(ctx: ManagerContext) -> FastAPI:
         version=__version__,
         description=DESCRIPTION,
         redirect_slashes=False,  # a wrong path is a 404 with a reason, not a redirect
+        docs_url=None,  # FastAPI's pages load from a CDN: manager/docs.py serves /docs offline
+        redoc_url=None,
     )
     app.state.ctx = ctx
     errors.install(app)
@@ -43,8 +47,18 @@ def create_app(ctx: ManagerContext) -> FastAPI:
     from dronefleet.ground.planner import drone_api
     from dronefleet.ground.planner.files import api as files_api
 
-    routers = (drones, control, telemetry, admin, stream, planner_api, files_api, photos_api)
-    for module in (*routers, drone_api, maps, search, separation, signin, web):
+    routers = (
+        drones,
+        control,
+        telemetry,
+        admin,
+        alarms,
+        stream,
+        planner_api,
+        files_api,
+        photos_api,
+    )
+    for module in (*routers, drone_api, maps, search, separation, signin, web, docs):
         app.include_router(module.router)
     web.mount(app)
     app.add_middleware(Hardening)
@@ -52,13 +66,21 @@ def create_app(ctx: ManagerContext) -> FastAPI:
     @app.get(
         "/api/v1/health",
         tags=["admin"],
-        summary="Liveness of the ground services",
+        summary="Health of the ground services: 200 ok, or 503 degraded with the problems",
         response_model=Health,
+        responses={503: {"model": Health, "description": "degraded: the problems say why"}},
     )
-    async def health() -> dict[str, object]:
+    async def health(response: Response) -> dict[str, object]:
         dropped = getattr(app.state, "dropped", None)
+        probe = getattr(app.state, "health", None)  # ground/manager/health.py
+        problems = await probe.problems() if probe is not None else []
+        if problems:
+            response.status_code = 503
         return {
-            "ok": True,
+            "ok": not problems,
+            "status": "degraded" if problems else "ok",
+            "problems": problems,
+            "replica": replica() if (replica := getattr(app.state, "replica", None)) else None,
             "version": __version__,
             "dropped_messages": dropped() if dropped else {},
         }

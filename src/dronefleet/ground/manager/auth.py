@@ -95,15 +95,20 @@ class TokenBook:
     async def has_any(self) -> bool:
         return bool(await self.state.list_tokens())
 
-    async def principal(self, conn: HTTPConnection, need: Role) -> Principal:
-        """Who makes this request: by its token, else by the web app's session cookie."""
+    async def authenticate(self, conn: HTTPConnection) -> Principal:
+        """Who makes this request: by its token, else by the web app's session cookie; 401 (or
+        429, throttled) for neither or an unknown one. Needs only the headers: the Drone
+        Manager's hardening asks it before a request's body is read."""
         token = token_from(conn)
         if token:
-            principal = await self.by_token(conn, token)
-        elif session := conn.cookies.get(SESSION_COOKIE):
-            principal = await self._by_session(conn, session)
-        else:
-            raise ApiError(401, "missing API token: send 'Authorization: Bearer <token>'")
+            return await self.by_token(conn, token)
+        if session := conn.cookies.get(SESSION_COOKIE):
+            return await self._by_session(conn, session)
+        raise ApiError(401, "missing API token: send 'Authorization: Bearer <token>'")
+
+    async def principal(self, conn: HTTPConnection, need: Role) -> Principal:
+        """Who makes this request, if their role is at least ``need`` (403 if not)."""
+        principal = await self.authenticate(conn)
         if principal.role < need:
             raise ApiError(
                 403,

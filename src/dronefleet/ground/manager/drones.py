@@ -11,13 +11,14 @@ import typing
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Path, Query, Request
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, create_model
 
 from dronefleet.ground.manager.auth import Principal
 from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
 from dronefleet.ground.manager.errors import ApiError, answers
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.manager.schemas import CommandAnswer, Drone, Gear, MissionAnswer
+from dronefleet.ground.planner import direct_checks
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.commands import CONTROL_COMMANDS, Command, ControlRequest, parse_control
 from dronefleet.messaging.gear import GearQuery, GearRequest
@@ -43,6 +44,25 @@ Timeout = Annotated[
     ),
 ]
 _HIDDEN = {"command", "request_id", "sender"}
+#: Flight commands a drone refuses while a mission flies it unless forced (drone/
+#: direct_commands.py), whose message models have no ``force`` of their own (disarm and resetfc
+#: have): the ground takes it from the body and sends it along.
+FORCEABLE = frozenset(
+    {
+        Command.TAKEOFF,
+        Command.NAVIGATE,
+        Command.CHANGE_N,
+        Command.CHANGE_E,
+        Command.ALTITUDE,
+        Command.MODE,  # GUIDED (the stopping modes are always obeyed; force changes nothing)
+    }
+)
+FORCE_DOC = (
+    "fly it even while a mission flies this drone: the mission is paused first (resume it "
+    "from the ground); audited with who forced it. Without it such a command is refused (409) "
+    "until the mission is paused or aborted"
+)
+_FLAG: TypeAdapter[bool] = TypeAdapter(bool)
 
 
 @router.get(
@@ -114,15 +134,37 @@ async def run_control(
     params: dict[str, Any],
     timeout_s: float | None,
 ) -> dict[str, Any]:
-    """Validate a control request, send it, wait for the answer; audited either way."""
+    """Validate a control request, check a move as the planner checks a mission's step
+    (ground/planner/direct_checks.py), send it with who sent it, wait for the answer; audited
+    either way (a forced command with its ``force``)."""
     gateway = ctx_of(request).gateway
+    planner = getattr(request.app.state, "planner", None)
 
     async def call() -> dict[str, Any]:
+        wire = dict(params)
+        forced = False
+        if wire.get("command") in FORCEABLE and "force" in wire:
+            try:
+                forced = _FLAG.validate_python(wire.pop("force"))
+            except ValidationError as exc:
+                raise ApiError(422, "force: must be true or false") from exc
         try:
-            parsed = parse_control(params)
+            parsed = parse_control(wire)
         except MessageError as exc:
             raise ApiError(422, str(exc)) from exc
-        return await gateway.control(drone_id, parsed, timeout_s)
+        if planner is not None and parsed.command in direct_checks.CHECKED:
+            record = await gateway.online_drone(drone_id)
+            direct_checks.check_move(
+                parsed,
+                record,
+                max_altitude_m=planner.max_altitude_m,
+                reserve_pct=planner.reserve_pct,
+                fence=direct_checks.fence_of(planner, drone_id),
+            )
+        extra: dict[str, Any] = {"sender": who.name[:128]}
+        if forced:
+            extra["force"] = True
+        return await gateway.control(drone_id, parsed, timeout_s, extra)
 
     command = str(params.get("command"))
     return await audited(request, who, drone_id, command, params, call())
@@ -135,6 +177,9 @@ def _body_model(model: type[BaseModel]) -> type[BaseModel]:
         for name, info in model.model_fields.items()
         if name not in _HIDDEN
     }
+    command = typing.get_args(model.model_fields["command"].annotation)[0]
+    if command in FORCEABLE and "force" not in fields:
+        fields["force"] = (bool, Field(default=False, description=FORCE_DOC))
     # Strict: a JSON body says what it means (``"force": 0`` is not ``false``), as published.
     config = ConfigDict(extra="forbid", strict=True)
     return create_model(f"{model.__name__}Body", __config__=config, **fields)

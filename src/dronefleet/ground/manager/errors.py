@@ -11,11 +11,11 @@ shapes in the OpenAPI schema, so what is published is what is answered.
 
 from __future__ import annotations
 
+import json
 import logging
 import re
 from typing import Any
 
-import orjson
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
@@ -130,27 +130,64 @@ def _jsonable_errors(errors: list[Any]) -> list[dict[str, Any]]:
 
 #: Paths whose requests are commands: rejected ones are audited too.
 _COMMAND_PATH = re.compile(r"^/api/v1/drones/([^/]+)/(commands/([^/]+)|mission(/stop)?)$")
+#: The mission requests the planner audits (planner/api.py), by path: refused ones are too.
+_MISSION_COMMANDS = {
+    "/api/v1/missions": "mission.create",
+    "/api/v1/missions/preview": "mission.preview",
+    "/api/v1/missions/preflight": "mission.preflight",
+}
+#: What of a refused request's answer the audit keeps: the reason and the first field errors.
+_AUDITED_ERRORS = 20
+
+
+def _audited_path(path: str) -> bool:
+    return path in _MISSION_COMMANDS or _COMMAND_PATH.match(path) is not None
+
+
+async def _sent(request: Request) -> Any:
+    """The request's JSON body as the route read it (Python's json: ``1e400`` is infinity, a
+    30-digit integer an int), or its first 500 characters when it is not JSON."""
+    raw = await request.body()
+    try:
+        return json.loads(raw)
+    except ValueError:
+        return {"raw": raw[:500].decode("utf-8", "replace")}
+
+
+def _excerpt(value: Any) -> Any:
+    """A field of a refused mission, bounded for its audit row."""
+    if isinstance(value, str):
+        return value[:200]
+    if isinstance(value, list):
+        return [_excerpt(v) for v in value[:50]]
+    return value if isinstance(value, int | float | bool) or value is None else str(value)[:200]
 
 
 async def _audit_rejected(request: Request, body: dict[str, Any]) -> None:
-    """Audit a command FastAPI refused before our route ran (its body did not fit)."""
+    """Audit a command or mission request FastAPI refused before our route ran (its body did
+    not fit its schema: a field of the wrong type, a number out of range)."""
     from dronefleet.ground.manager.auth import Role
 
-    match = _COMMAND_PATH.match(request.url.path)
-    if match is None:
-        return
+    path = request.url.path
     ctx = request.app.state.ctx
     try:
         who = await ctx.tokens.principal(request, Role.OPERATOR)
     except ApiError:
         return
+    answer = {**body, "errors": body.get("errors", [])[:_AUDITED_ERRORS]}
+    sent = await _sent(request)
+    if path in _MISSION_COMMANDS:
+        # What the route itself records (planner/api.py), from what was sent; not the steps.
+        fields = sent if isinstance(sent, dict) else {}
+        params = {k: _excerpt(fields[k]) for k in ("name", "drones", "raw") if k in fields}
+        params |= {k: _excerpt(v) for k, v in request.query_params.items()}
+        await ctx.gateway.audit(who, None, _MISSION_COMMANDS[path], params, 422, answer)
+        return
+    match = _COMMAND_PATH.match(path)
+    assert match is not None  # _audited_path
     command = match[3] or ("stopchain" if match[4] else "startchain")
-    try:
-        params: Any = orjson.loads(await request.body())
-    except orjson.JSONDecodeError:
-        params = {"raw": (await request.body())[:500].decode("utf-8", "replace")}
-    params = params if isinstance(params, dict) else {"body": params}
-    await ctx.gateway.audit(who, match[1], command, params, 422, body)
+    params = sent if isinstance(sent, dict) else {"body": sent}
+    await ctx.gateway.audit(who, match[1], command, params, 422, answer)
 
 
 def error_body(status: int, body: dict[str, Any]) -> dict[str, Any]:
@@ -177,7 +214,7 @@ def install(app: FastAPI) -> None:
             "detail": validation_reason(errors),
             "errors": _jsonable_errors(errors),
         }
-        if request.method == "POST" and _COMMAND_PATH.match(request.url.path):
+        if request.method == "POST" and _audited_path(request.url.path):
             await _audit_rejected(request, body)
         return JSONResponse(body, status_code=422)
 

@@ -1,17 +1,24 @@
 """HTTP hardening in front of every route (issue 12): body limits, security headers, auth throttle.
 
-- **Bodies are bounded before they are read.** A body without any credential is refused (401) and
-  one over :data:`MAX_BODY_BYTES` (413) before a byte is parsed: by its Content-Length, or while it
-  streams in when it has none. The largest legitimate body, a 10,000-step mission, is ~1 MB.
+- **Bodies are bounded before they are read.** A body whose request carries no credential, or one
+  the ground does not know (a wrong token, an ended session: 401; a client over the failed-login
+  limit: 429), is refused before a byte of it is buffered: the credential is checked from the
+  headers alone (``auth.TokenBook.authenticate``). A known one's body over :data:`MAX_BODY_BYTES`
+  is refused (413) by its Content-Length, or while it streams in when it has none. The largest
+  legitimate body, a 10,000-step mission, is ~1 MB. (Before issue 25, only a credential's presence
+  was checked here: 40 bodies of 3.5 MiB with a wrong token were parsed before their 401.)
 - **Headers a browser obeys**: a strict Content-Security-Policy for the web app (scripts only
   from this server; no inline script; styles inline only, as Leaflet positions with them; map
   tiles only from the tile server the ground was given), framing refused, no MIME sniffing, no
-  referrer. The OpenAPI pages (``/docs``, ``/redoc``) load FastAPI's own CDN assets and get a
-  policy that allows exactly those.
+  referrer. The API docs (``/docs``: Swagger UI from npm, served by the ground, manager/docs.py)
+  get a policy that allows this server only, as the app's does.
 - **Failed authentication is throttled per client** (:class:`AuthThrottle`, used by
   ``auth.TokenBook``): after :data:`MAX_FAILURES` unknown tokens in :data:`WINDOW_S` seconds, a
   client's new tokens are not looked up but answered 429 until the window has passed (a token
-  already in use keeps working, so guessing costs an attacker and not the operator).
+  already in use keeps working, so guessing costs an attacker and not the operator). The client is
+  the connection's peer: ``X-Forwarded-For`` is believed only from a proxy the ground was told to
+  trust (``dronefleet ground --trusted-proxy ADDR``; uvicorn's proxy-headers handling, given only
+  those addresses), never by default, so a forged header cannot buy a fresh budget.
 
 A plain ASGI middleware rather than Starlette's ``BaseHTTPMiddleware``, so a refused body is never
 buffered and WebSockets pass untouched.
@@ -26,8 +33,10 @@ from typing import Any
 from urllib.parse import urlsplit
 
 import orjson
+from starlette.requests import HTTPConnection
 
 from dronefleet.errors import InvalidInput
+from dronefleet.ground.manager.errors import ApiError
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -45,10 +54,9 @@ APP_POLICY = (
     "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'"
 )
 DOCS_POLICY = (
-    "default-src 'self'; script-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; "
-    "style-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net https://fonts.googleapis.com; "
-    "img-src 'self' data: https:; font-src 'self' https://fonts.gstatic.com; "
-    "connect-src 'self'; object-src 'none'; frame-ancestors 'none'"
+    "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+    "img-src 'self' data:; font-src 'self'; connect-src 'self'; object-src 'none'; "
+    "base-uri 'none'; form-action 'self'; frame-ancestors 'none'"
 )
 _HEADERS = [
     (b"x-frame-options", b"DENY"),
@@ -106,14 +114,11 @@ class Hardening:
         headers = dict(scope.get("headers") or [])
         length = _content_length(headers)
         has_body = (length is not None and length > 0) or b"transfer-encoding" in headers
-        token_sent = (
-            any(h in headers for h in _CREDENTIALS)
-            or b"token=" in scope.get("query_string", b"")
-            or _SESSION in headers.get(b"cookie", b"")
-        )
-        if has_body and not token_sent:
-            await _refuse(send, 401, "missing API token: send 'Authorization: Bearer <token>'")
-            return
+        if has_body:
+            refusal = await _unauthenticated(scope, headers)
+            if refusal is not None:
+                await _refuse(send, *refusal)
+                return
         if length is not None and length > MAX_BODY_BYTES:
             await _refuse(send, 413, f"request body over {MAX_BODY_BYTES} bytes")
             return
@@ -152,6 +157,30 @@ class Hardening:
                 await _refuse(send, 413, f"request body over {MAX_BODY_BYTES} bytes")
 
 
+async def _unauthenticated(
+    scope: Scope, headers: dict[bytes, bytes]
+) -> tuple[int, str, dict[str, Any]] | None:
+    """Why a request with a body is refused before the body is read (status, reason, extra
+    fields), or None when its credential is known. Only the headers are looked at; the route
+    checks the role again (from the TokenBook's cache) once the body is in."""
+    tokens = getattr(getattr(getattr(scope.get("app"), "state", None), "ctx", None), "tokens", None)
+    if tokens is None:  # an app without a token book (never the ground's): presence only
+        sent = (
+            any(h in headers for h in _CREDENTIALS)
+            or b"token=" in scope.get("query_string", b"")
+            or _SESSION in headers.get(b"cookie", b"")
+        )
+        return (
+            None if sent else (401, "missing API token: send 'Authorization: Bearer <token>'", {})
+        )
+    try:
+        await tokens.authenticate(HTTPConnection(scope))
+    except ApiError as exc:
+        body = exc.body()
+        return exc.status, str(body.pop("detail")), body
+    return None
+
+
 def _app_policy(scope: Scope) -> str:
     """The web app's policy; map tiles may come only from the tile server the ground was given
     (``--tiles``: the app's ``web_tiles``), and from nowhere else."""
@@ -174,8 +203,10 @@ def _content_length(headers: dict[bytes, bytes]) -> int | None:
         return None
 
 
-async def _refuse(send: Send, status: int, detail: str) -> None:
-    body = orjson.dumps({"detail": detail})
+async def _refuse(
+    send: Send, status: int, detail: str, extra: dict[str, Any] | None = None
+) -> None:
+    body = orjson.dumps({"detail": detail, **(extra or {})})
     await send(
         {
             "type": "http.response.start",

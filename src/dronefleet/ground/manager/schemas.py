@@ -9,7 +9,7 @@ the gear files of Listing 4.2), so a drone that says more is not an error of our
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, RootModel
 
@@ -40,6 +40,11 @@ class Drone(_Open):
     wind: dict[str, Any] | None = Field(
         default=None, description="the autopilot's wind estimate; absent: unknown"
     )
+    link_failsafe: dict[str, Any] | None = Field(
+        default=None,
+        description="what its autopilot does by itself when the drone's software falls silent"
+        " (action: off, rtl, land...; timeout_s; set_by_drone); absent: no such autopilot",
+    )
     vehicle_time_s: float | None = None
     specs: dict[str, Any] | None = None
     sensors: dict[str, Any] | None = None
@@ -62,6 +67,12 @@ class CommandAnswer(_Open):
     ok: bool
     error: str | None = None
     result: dict[str, Any] | None = None
+    done: bool | None = Field(
+        default=None,
+        description="false: a move under way; the drone reports its end with the same "
+        "request_id on the live stream (kind 'command', done true, outcome)",
+    )
+    outcome: str | None = None
     timestamp: float | None = None
     vehicle_time_s: float | None = None
 
@@ -147,8 +158,23 @@ class Me(BaseModel):
     can_command: bool
 
 
+class HealthProblem(BaseModel):
+    what: str = Field(description="disk, broker, planner, state or telemetry")
+    detail: str = Field(description="what is wrong, in a sentence")
+
+
 class Health(BaseModel):
+    """The ground's health (ground/manager/health.py): 200 ``ok``, or 503 ``degraded`` with
+    the problems while any lasts."""
+
     ok: bool
+    status: Literal["ok", "degraded"] = "ok"
+    problems: list[HealthProblem] = Field(default_factory=list)
+    replica: Literal["leader", "standby"] | None = Field(
+        default=None,
+        description="among ground replicas sharing a PostgreSQL state: leader (runs the "
+        "Mission Planner) or standby; none for a ground alone on its broker",
+    )
     version: str
     dropped_messages: dict[str, int] = Field(
         default_factory=dict,

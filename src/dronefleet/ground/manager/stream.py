@@ -1,8 +1,12 @@
-"""``/api/v1/stream``: live heartbeats, telemetry, mission progress, alarms and fleet changes.
+"""``/api/v1/stream``: live heartbeats, telemetry, mission progress, alarms, fleet changes and the
+drones' command answers (``command``: an accepted move's end comes there, drone/command_watch.py).
 
-One :class:`StreamHub` per server listens on the ground broker and fans every message out to the
-connected WebSockets as ``{"kind", "drone_id", "topic", "data"}``. A client may narrow the stream
-with ``?drone=ID`` and ``?kinds=heartbeat,telemetry,progress,alarm,fleet``. The separation
+One :class:`StreamHub` per server fans every message out to the connected WebSockets as
+``{"kind", "drone_id", "topic", "data"}``: heartbeats and telemetry as the ground's Fleet Inbox
+hands them (ground/inbox.py: read once for every ground service), the rest from its own broker
+connection. A message is turned into JSON only when a client wants it. A client may narrow the
+stream with ``?drone=ID`` and ``?kinds=heartbeat,telemetry,progress,alarm,fleet,command``. The
+separation
 monitor's alarms (``ground/separation/alarms``) come as ``alarm`` too. A slow client loses
 its oldest messages rather than holding up the others.
 """
@@ -11,17 +15,20 @@ import asyncio
 import contextlib
 import logging
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 from urllib.parse import urlsplit
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
 from dronefleet.ground.identifier import EVENTS_TOPIC
+from dronefleet.ground.inbox import FleetInbox
 from dronefleet.ground.manager.auth import Role
 from dronefleet.ground.manager.context import ctx_of
 from dronefleet.ground.manager.errors import ApiError
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError
+from dronefleet.messaging.commands import CommandResponse
 from dronefleet.messaging.ground_events import FleetEvent, PlannerEvent
 from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.log_throttle import LogThrottle
@@ -31,8 +38,10 @@ from dronefleet.messaging.topics import (
     PLANNER_EVENTS,
     SEPARATION_ALARMS,
     Channel,
+    Direction,
     any_drone,
     parse,
+    topic,
 )
 
 log = logging.getLogger(__name__)
@@ -43,13 +52,14 @@ KINDS = {
     Channel.TELEMETRY: "telemetry",
     Channel.MISSION: "progress",
     Channel.ALARMS: "alarm",
+    Channel.CONTROL: "command",
 }
-#: The shared model each relayed drone message is validated with (the stream relays no raw dict).
-MODELS: dict[Channel, type[Heartbeat | Telemetry | MissionProgress | Alarm]] = {
-    Channel.HEARTBEATS: Heartbeat,
-    Channel.TELEMETRY: Telemetry,
+#: The shared model each relayed drone message is validated with (the stream relays no raw dict);
+#: heartbeats and telemetry come validated from the Fleet Inbox.
+MODELS: dict[Channel, type[MissionProgress | Alarm | CommandResponse]] = {
     Channel.MISSION: MissionProgress,
     Channel.ALARMS: Alarm,
+    Channel.CONTROL: CommandResponse,
 }
 ALL_KINDS = frozenset({*KINDS.values(), "fleet", "mission"})
 #: The Mission Planner announces mission changes (state, handovers, extensions) here.
@@ -63,35 +73,67 @@ class _Listener:
     kinds: frozenset[str]
     queue: asyncio.Queue[dict[str, Any]] = field(default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
 
+    def wants(self, kind: str, drone_id: str | None) -> bool:
+        return kind in self.kinds and (self.drone is None or drone_id == self.drone)
+
     def offer(self, message: dict[str, Any]) -> None:
-        if message["kind"] not in self.kinds:
-            return
-        if self.drone is not None and message.get("drone_id") != self.drone:
-            return
+        if self.wants(message["kind"], message.get("drone_id")):
+            self.put(message)
+
+    def put(self, message: dict[str, Any]) -> None:
         if self.queue.full():
             with contextlib.suppress(asyncio.QueueEmpty):
                 self.queue.get_nowait()
         self.queue.put_nowait(message)
 
 
+#: What the Fleet Inbox hands the hub; the other drone channels come on its own connection.
+FROM_INBOX = (Channel.HEARTBEATS, Channel.TELEMETRY)
+
+
 class StreamHub:
-    def __init__(self, broker_url: Any, *, client_id: str) -> None:
+    def __init__(self, broker_url: Any, *, client_id: str, inbox: FleetInbox | None = None) -> None:
         self.client = BrokerClient(broker_url, client_id)
+        #: Heartbeats and telemetry; alone (no ground's inbox given), an inbox of its own.
+        self.inbox = inbox or FleetInbox(broker_url, client_id=f"{client_id}-inbox")
+        self._own_inbox = inbox is None
         self.listeners: set[_Listener] = set()
         self.dropped = 0  # messages that did not validate: counted, not relayed
 
     async def start(self) -> "StreamHub":
-        for channel in KINDS:
-            qos = QOS_STREAM if channel in {Channel.HEARTBEATS, Channel.TELEMETRY} else 1
-            await self.client.subscribe(any_drone(channel), self._on_message, qos=qos)
+        self.inbox.heartbeats.direct("live stream", partial(self._relay, Channel.HEARTBEATS))
+        self.inbox.telemetry.direct("live stream", partial(self._relay, Channel.TELEMETRY))
+        for channel in KINDS.keys() - FROM_INBOX:
+            await self.client.subscribe(any_drone(channel), self._on_message, qos=1)
         await self.client.subscribe(EVENTS_TOPIC, self._on_message, qos=QOS_STREAM)
         await self.client.subscribe(PLANNER_EVENTS_TOPIC, self._on_message, qos=QOS_STREAM)
         await self.client.subscribe(SEPARATION_ALARMS, self._on_message, qos=1)
         await self.client.start()
+        if self._own_inbox:
+            await self.inbox.start()
         return self
 
     async def stop(self) -> None:
+        for feed in (self.inbox.heartbeats, self.inbox.telemetry):
+            await feed.detach("live stream")
+        if self._own_inbox:
+            await self.inbox.stop()
         await self.client.stop()
+
+    def _relay(self, channel: Channel, msg: Heartbeat | Telemetry) -> None:
+        """A heartbeat or telemetry as the inbox read it, to the clients that want it."""
+        kind = KINDS[channel]
+        wanting = [listener for listener in self.listeners if listener.wants(kind, msg.drone_id)]
+        if not wanting:
+            return
+        message = {
+            "kind": kind,
+            "drone_id": msg.drone_id,
+            "topic": topic(msg.drone_id, channel, Direction.OUT),
+            "data": msg.model_dump(mode="json", exclude_none=True),
+        }
+        for listener in wanting:
+            listener.put(message)
 
     async def _on_message(self, topic_name: str, payload: bytes) -> None:
         if not self.listeners:

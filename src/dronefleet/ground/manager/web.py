@@ -1,7 +1,8 @@
 """The web apps (seed 4.2.1, 4.2.3, 4.2.4, 5.1): ``/`` and the static files under ``/web/``.
 
 The pages are plain HTML/CSS/JS from ``dronefleet/web`` in the installed package; the third-party
-libraries (Leaflet, Chart.js) are copied from npm into ``web/vendor/`` by ``scripts/web-deps.sh``.
+libraries (Leaflet, Leaflet-Geoman, Chart.js) are copied from npm into ``web/vendor/`` by
+``scripts/web-deps.sh``.
 ``/api/v1/web/config`` tells the pages which map tiles to use: a tile server's URL template, the
 ground's own MBTiles tiles (``local_tiles``: fetched with credentials, metadata at
 ``/api/v1/tiles``), or none (an offline grid).

@@ -17,6 +17,7 @@ from pathlib import Path
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from dronefleet.errors import InvalidInput
+from dronefleet.owner_only import open_private
 
 THUMB_PX = 256  # the longer side of a thumbnail
 THUMB_QUALITY = 80
@@ -44,7 +45,10 @@ def write_zip(files: list[tuple[str, Path]], dest: Path) -> None:
     """``dest``: a zip of ``files`` (name in the zip, path), stored as they are (JPEG does not
     compress), written beside and renamed into place so a reader never sees half of one."""
     part = dest.with_suffix(".part")
-    with zipfile.ZipFile(part, "w", compression=zipfile.ZIP_STORED) as archive:
+    with (
+        open_private(part) as out,
+        zipfile.ZipFile(out, "w", compression=zipfile.ZIP_STORED) as archive,
+    ):
         for name, path in files:
             archive.write(path, name)
     os.replace(part, dest)

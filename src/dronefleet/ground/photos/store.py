@@ -10,7 +10,6 @@ read and written on worker threads; the list is kept in memory once read.
 from __future__ import annotations
 
 import asyncio
-import os
 import re
 from pathlib import Path
 
@@ -18,6 +17,7 @@ from pydantic import BaseModel, Field
 
 from dronefleet.errors import InvalidInput, NotFound
 from dronefleet.ground.photos import images
+from dronefleet.owner_only import write_private
 
 SAFE_ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 MANIFEST = "photos.json"
@@ -155,16 +155,10 @@ def _read_text(path: Path) -> str | None:
 
 
 def _write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    part = path.with_suffix(".part")
-    part.write_text(text)
-    os.replace(part, path)
+    write_private(path, text.encode())  # the owner's only, folders too (issue 25)
 
 
 def _write_picture(folder: Path, name: str, n: int, data: bytes) -> None:
     small = images.thumbnail(data)  # first: junk is refused before anything is written
-    (folder / "thumbs").mkdir(parents=True, exist_ok=True)
     for path, content in ((folder / name, data), (folder / "thumbs" / f"{n:04d}.jpg", small)):
-        part = path.with_suffix(".part")
-        part.write_bytes(content)
-        os.replace(part, path)
+        write_private(path, content)

@@ -290,13 +290,16 @@ def split_route(
     climb_while_flying: bool = True,
     reserve_pct: float = 20.0,
     max_orders: int = 720,
+    returns_home: bool = False,
 ) -> list[Assignment]:
     """Contiguous shares of ``route`` minimising the makespan; in route order.
 
     ``route`` is a :class:`CoveragePlan` (its mission steps are costed, and fly-through swaths
     are never cut) or ordered waypoints with ``holds_s`` each. Share ``m`` along the route flies
     ``m * altitude_step_m`` higher. A drone that cannot help gets an empty share; no share
-    takes its drone below ``reserve_pct`` of battery (ValueError when the fleet cannot).
+    takes its drone below ``reserve_pct`` of battery (ValueError when the fleet cannot). With
+    ``returns_home`` (the mission ends with RTL) each drone keeps what its way home from the
+    route's farthest waypoint takes (:func:`home_reserve_mah`).
     """
     if not drones:
         raise ValueError("no drones to share the route among")
@@ -309,6 +312,9 @@ def split_route(
     )
     place = [heights.index(off) for off in offsets]
     usable = np.array([(s.battery_pct - reserve_pct) / 100 * model.capacity_mah for s in drones])
+    if returns_home:
+        route_points = _route_points(route)
+        usable -= np.array([home_reserve_mah(route_points, s, r.altitude_m, model) for s in drones])
     search = _Search(r, start, usable, model, place)
     by_distance = sorted(
         range(len(drones)), key=lambda d: float(start[d, 0, 0]) if len(r.xy) else 0.0
@@ -398,6 +404,24 @@ def seed_equal_split(
         first = float(start[k, 0, b]) if e > b else 0.0
         out.append(Assignment(slot.drone_id, list(range(b, e)), done, 0.0, first))
     return out
+
+
+def _route_points(route: CoveragePlan | Sequence[LLA]) -> list[LLA]:
+    return list(route.waypoints) if isinstance(route, CoveragePlan) else list(route)
+
+
+def home_reserve_mah(
+    points: Sequence[LLA], slot: DroneSlot, altitude_m: float, model: VehicleModel
+) -> float:
+    """What the way home (RTL, as the vehicle flies it: ground/planner/estimate/) takes from
+    the point of ``points`` farthest from ``slot``'s home: kept back from its share's budget."""
+    home = slot.home or LLA(slot.position.lat, slot.position.lon, slot.position.alt_m)
+    if not points:
+        return 0.0
+    far = max(points, key=lambda p: lla_to_ned(LLA(p.lat, p.lon, home.alt_m), home).horizontal_m)
+    start = LLA(far.lat, far.lon, home.alt_m + altitude_m)
+    way_home = [{"command": "rtl"}, {"command": "wait_for_flight"}]
+    return estimate(way_home, start, home, airborne=True, model=model).energy_mah
 
 
 def _hop(p: LLA, altitude_m: float, hold_s: float) -> list[dict[str, Any]]:

@@ -2,7 +2,8 @@
 
 Create (optionally start), preview (waypoints, time and battery per drone), the pre-flight
 checklist (ground/planner/preflight.py, also run by every start), start, stop, pause, resume,
-abort (every drone home), list, get, the mission log (JSON, downloadable) and what the drones
+abort (every drone home), list, get, progress (per drone, with its time left and the mission's
+timeline: ground/planner/progress_view.py), the mission log (JSON, downloadable) and what the drones
 measured (GeoJSON or CSV). Refusals are 4xx with the reason; nothing changes."""
 
 from __future__ import annotations
@@ -18,10 +19,18 @@ from dronefleet.ground.manager.context import Operator, Viewer, audited, ctx_of
 from dronefleet.ground.manager.errors import answers
 from dronefleet.ground.manager.schemas import MissionLog
 from dronefleet.ground.planner import launch, measurements, preflight
+from dronefleet.ground.planner.eta import etas_of
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.mission_spec import MissionSpec
 from dronefleet.ground.planner.preflight import PreflightReport
-from dronefleet.ground.planner.schemas import MissionDetail, MissionSummary, Preview, Readings
+from dronefleet.ground.planner.progress_view import mission_progress
+from dronefleet.ground.planner.schemas import (
+    MissionDetail,
+    MissionProgressView,
+    MissionSummary,
+    Preview,
+    Readings,
+)
 from dronefleet.ground.planner.service import MissionPlanner
 
 # Every route needs a token (401/403) and the planner (503); each adds what else it can answer.
@@ -139,6 +148,18 @@ async def get(request: Request, mission_id: str, who: Viewer) -> MissionDetail:
     return MissionDetail.model_validate(
         {**record.summary(), **record.model_dump(mode="json", exclude={"paths"})}
     )
+
+
+@router.get(
+    "/missions/{mission_id}/progress",
+    summary="Each drone's share, current step and time left (vehicle s), and the timeline",
+    responses=answers(404),
+)
+async def progress(request: Request, mission_id: str, who: Viewer) -> MissionProgressView:
+    planner = planner_of(request)
+    record = planner.get(mission_id)
+    etas = await etas_of(planner).of(record, ctx_of(request).gateway.fleet)
+    return MissionProgressView.model_validate(mission_progress(record, etas))
 
 
 @router.post(

@@ -130,7 +130,9 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
             return
         prefix, new_end = placed.prefix, placed.end
     async with planner.lock:
-        if not leg.active or record.terminal:
+        # Checked again with the decision, under the lock: an alarm, a lost drone's takeover or
+        # an extension may have ended the leg while the worker computed.
+        if not leg.active or record.terminal or record.handed_over(leg):
             return
         leg.state = LegState.REPLACED
         leaving = Leg(

@@ -30,6 +30,9 @@ class DroneView:
     home: LLA
     battery_pct: float
     flight: dict[str, Any] | None = None  # how its vehicle flies (Heartbeat.flight)
+    wind: dict[str, Any] | None = None  # its autopilot's wind estimate (Heartbeat.wind)
+    seen_ago_s: float | None = None  # since the Drone Identifier last heard it
+    ground_speed_mps: float | None = None  # in its last heartbeat
 
     @property
     def airborne(self) -> bool:
@@ -53,7 +56,14 @@ class DroneView:
             home=LLA(home["lat"], home["lon"], home.get("alt_m", 0.0)),
             battery_pct=float(battery.get("remaining_pct", 0.0)),
             flight=d.get("flight") if isinstance(d.get("flight"), dict) else None,
+            wind=d.get("wind") if isinstance(d.get("wind"), dict) else None,
+            seen_ago_s=_number(d.get("seen_ago_s")),
+            ground_speed_mps=_number(d.get("ground_speed_mps")),
         )
+
+
+def _number(value: Any) -> float | None:
+    return float(value) if isinstance(value, int | float) else None
 
 
 class FleetView:

@@ -2,7 +2,7 @@
 
 A mission is given as steps (the seed's commands) or as an area (coverage). Its steps are
 validated one by one and none may go above the altitude limit; an area is planned (coverage)
-here too. ground/planner/launch.py then shares the work among the drones and checks each share.
+here too. ground/planner/shares.py then shares the work among the drones and checks each share.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from enum import StrEnum
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
@@ -50,9 +50,9 @@ _COMMANDS = frozenset(c.value for c in Command)
 def _a_step(step: dict[str, Any]) -> dict[str, Any]:
     """A work step is kept as the JSON object the drones get (what planning and estimates read
     fastest). Steps are validated whole by the shared step models (``parse_step``,
-    messaging/commands.py) where they enter: a request's steps in ``launch.work_of``, generated
-    ones by construction. A record checks only the command, which costs 1/20 of a full check
-    (a 10,000-step record: 6 ms instead of 120 ms, on the event loop)."""
+    messaging/commands.py) where they enter: a request's steps in ``mission_spec.work_of``,
+    generated ones by construction. A record checks only the command, which costs 1/20 of a full
+    check (a 10,000-step record: 6 ms instead of 120 ms, on the event loop)."""
     if step.get("command") not in _COMMANDS:
         raise ValueError(f"unknown mission step command {step.get('command')!r}")
     return step
@@ -93,6 +93,16 @@ class Handover(BaseModel):
     predicted_old_s: float | None = None  # early: the outgoing drone's flight time left
     predicted_new_s: float | None = None  # early: the incoming drone's time to get there
     error: str | None = None
+    # On alarm: the leg that takes the failing drone out, sent as the handover is decided; the
+    # replacement is chosen once the drone has accepted it (its reports of the leg it flew are
+    # all in by then) or after replacement.ASSIGN_WAIT_S.
+    recovery_leg: str | None = None
+    # A lost drone's work (ground/planner/lost.py) is taken over only once its replacement has
+    # started on it: until then (False) the drone, heard again, keeps its leg and the takeover is
+    # cancelled; when it happens (True) the lost drone is sent ``recovery``.
+    committed: bool = True
+    recovery: list[WorkStep] = Field(default_factory=list)
+    cancelled: str | None = None  # why a takeover was called off (kept in ``takeovers_cancelled``)
 
 
 class Expansion(BaseModel):
@@ -109,6 +119,35 @@ class Expansion(BaseModel):
     waypoints: int | None = None
     area_m2: float | None = None
     assignments: dict[str, int] = Field(default_factory=dict)  # drone -> waypoints
+
+
+class EventKind(StrEnum):
+    """What a mission's timeline says happened (ground/planner/timeline.py)."""
+
+    STARTED = "started"
+    ALARM = "alarm"  # a CRITICAL or OUT_MEASURE alarm, and what was (not) done about it
+    HANDOVER = "handover"  # a drone's work taken over by another (replacement)
+    EXPANSION = "expansion"  # the area grown and drones called (collaboration)
+    PAUSED = "paused"
+    RESUMED = "resumed"
+    STALLED = "stalled"
+    RUNNING = "running"  # running again after a stall
+    COMPLETED = "completed"
+    FAILED = "failed"
+    STOPPED = "stopped"
+
+
+class MissionEvent(BaseModel):
+    """One entry of a mission's timeline: when (the ground's clock), what, which drone, and a
+    sentence an operator reads."""
+
+    model_config = ConfigDict(extra="ignore")
+
+    at: float | None
+    kind: EventKind
+    drone_id: str | None = None
+    text: str
+    drones: list[str] = Field(default_factory=list)  # the drones called or taking over
 
 
 class StepReport(BaseModel):
@@ -146,9 +185,18 @@ class Leg(BaseModel):
     error: str | None = None
     paused: str | None = None  # who took the drone over, while its mission is paused
     seqs: list[int] = Field(default_factory=list)  # report numbers received, sorted
+    # Who flies it (issue 28): on board its autopilot (AUTO), from the companion computer, or
+    # None when the drone's own configuration decides (--onboard-missions); and why not on board.
+    flown_by: Literal["autopilot", "companion"] | None = None
+    companion_reason: str | None = None
+
+    #: Work steps this leg flies otherwise than the mission's work, by global index: near a
+    #: lost drone, on another layer (issue 26; ground/planner/deconflict/, rule 5).
+    altered: dict[int, WorkStep] = Field(default_factory=dict)
 
     def drone_steps(self, work: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        return [*self.prefix, *(work[i] for i in self.indices), *self.suffix]
+        steps = (self.altered.get(i, work[i]) for i in self.indices)
+        return [*self.prefix, *steps, *self.suffix]
 
     def global_index(self, drone_step: int) -> int | None:
         k = drone_step - len(self.prefix)
@@ -178,7 +226,11 @@ class MissionRecord(BaseModel):
     alarms: list[Alarm] = Field(default_factory=list)
     handovers: list[Handover] = Field(default_factory=list)
     expansions: list[Expansion] = Field(default_factory=list)
+    # Takeovers of a lost drone's work called off because it was heard again first.
+    takeovers_cancelled: list[Handover] = Field(default_factory=list)
     options: RecordOptions = Field(default_factory=RecordOptions)
+    # What happened, in order (ground/planner/timeline.py): pauses, alarms, handovers, ...
+    events: list[MissionEvent] = Field(default_factory=list)
     paths: dict[str, list[list[float]]] = Field(
         default_factory=dict, description="per drone: [vehicle s, lat, lon, height above home]"
     )

@@ -34,6 +34,10 @@ class MissionOptions(BaseModel):
     # How each drone's share ends (ground/planner/ends.py): home and land (default), land where
     # the work ended, or hold there.
     end_action: EndAction = "rtl"
+    # A steady wind the estimates fly in (issue 28): its speed and where it blows from (degrees,
+    # 0 = north). Without it each drone's autopilot's wind estimate is used, else none.
+    wind_mps: float | None = Field(default=None, ge=0, le=50)
+    wind_from_deg: float = Field(default=0.0, ge=0, le=360)
     # Where the mission may fly: checked for every drone's share before it is accepted
     # (ground/planner/geofence.py).
     geofence: Geofence | None = None

@@ -10,7 +10,8 @@ Send. For each drone of the plan:
 * **gps**: a 3-D fix with at least :data:`MIN_SATELLITES` satellites (ArduPilot's GPS arming
   check asks for 6);
 * **link**: heartbeats fresh (heard within three intervals, the Drone Identifier's own rule for
-  "lost") and the drone's link to its autopilot up;
+  "lost"), the drone's link to its autopilot up, and the autopilot's own link-loss failsafe not
+  off (a vehicle whose drone software died hovered until its battery was flat: issue 26);
 * **sensors**: what the mission's steps use is on board: a camera for ``takepic`` and
   ``camera_trigger``, a measuring sensor for ``read_sensors`` (the drone's gear, Listing 4.2);
 * **fence** (only when the mission has one): the drone starts inside it; every share is checked
@@ -108,7 +109,7 @@ def battery(share: dict[str, Any], reserve_pct: float) -> Check:
     if end >= reserve_pct:
         why = f"{has}: ends at {end:.0f} % (reserve {reserve_pct:g} %)"
         return _check(CheckName.BATTERY, CheckStatus.PASS, why)
-    # Accepted below the reserve only with a handover planned (launch.assign notes it).
+    # Accepted below the reserve only with a handover planned (shares.assign notes it).
     why = f"{has}: an idle drone takes over in flight before the {reserve_pct:g} % reserve"
     return _check(CheckName.BATTERY, CheckStatus.PASS, why)
 
@@ -138,6 +139,19 @@ def link(record: dict[str, Any]) -> Check:
     if status != "online" or ago > max(LOST_AFTER_INTERVALS * interval, MIN_LOST_AFTER_S):
         return _check(CheckName.LINK, CheckStatus.FAIL, f"last heartbeat {ago:.0f} s ago")
     why = f"last heartbeat {ago:.1f} s ago (one every {interval:.1f} s)"
+    failsafe = record.get("link_failsafe")
+    if isinstance(failsafe, dict) and failsafe.get("action") == "off":
+        why += (
+            "; but its autopilot's own link-loss failsafe is off: if the drone's software dies"
+            " the vehicle hovers until its battery is flat (turn it on, or run the drone with"
+            " --set-autopilot-failsafe)"
+        )
+        return _check(CheckName.LINK, CheckStatus.FAIL, why)
+    if isinstance(failsafe, dict) and failsafe.get("action") not in (None, "unknown"):
+        after = failsafe.get("timeout_s")
+        why += f"; autopilot failsafe: {failsafe['action']}" + (
+            f" after {after:g} s without it" if isinstance(after, int | float) else ""
+        )
     return _check(CheckName.LINK, CheckStatus.PASS, why)
 
 

@@ -5,9 +5,13 @@
   the link was down arrives, and duplicates are dropped by step.
 - Reports are numbered per leg (``MissionProgress.seq``); a gap in the numbers received means
   some were lost on the way, and the drone is asked for them again (:func:`fill_gap`).
-- A drone the Drone Identifier declares lost has its work taken over (ground/planner/lost.py).
+- A drone the Drone Identifier declares lost has its work taken over if it stays lost for a
+  confirmation period, and the takeover is called off if it is heard again before its
+  replacement has started (ground/planner/lost.py).
 - A drone back online is sent its active legs again (a restarted drone forgot them) and asked
   for its reports, so what it did while unheard is recorded.
+- At a ground's start, handovers a restart interrupted are finished (:func:`resume`) before any
+  live report or alarm is read, and drones the Identifier still has lost are watched again.
 - A drone whose heartbeats name no mission while a leg of ours runs on it (restarted faster than
   it could be missed) is asked for its reports too (:func:`on_heartbeat`).
 """
@@ -18,8 +22,9 @@ import asyncio
 import logging
 import secrets
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from dronefleet.ground.fleet import sleep_awake
 from dronefleet.ground.planner import lost, replacement
 from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
 from dronefleet.messaging.client import QOS_COMMAND
@@ -46,6 +51,8 @@ REPORT_PREFIX = "report-"
 RECONNECT_POLL_S = 1.0
 #: Wall seconds between two requests for a leg's missing reports.
 GAP_ASK_S = 2.0
+#: Wall seconds at most a mission waits for a leg's missing reports before it settles.
+GAP_HOLD_S = 30.0
 #: Heartbeats in a row naming no mission, or another, before a running leg is checked.
 MISMATCHED_BEATS = 2
 
@@ -110,14 +117,20 @@ async def forgotten(planner: MissionPlanner, record: MissionRecord, leg: Leg) ->
         await planner.send_leg(record, leg)
         return
     why = f"drone {leg.drone_id} no longer knows leg {leg.leg_id} (restarted?)"
-    await lost.take_over(planner, record, leg, why)
+    while await lost.take_over(planner, record, leg, why):  # nobody now: again later
+        await sleep_awake(lost.RETRY_S)
+        if record.terminal or not leg.active or record.handed_over(leg):
+            return
 
 
 async def on_heartbeat(planner: MissionPlanner, topic_name: str, payload: bytes) -> None:
     """A drone that says it flies no mission (or another) while a leg of ours is running on it
     was restarted, or dropped the leg: after :data:`MISMATCHED_BEATS` such heartbeats its
     reports are asked for. It sends what it kept and says the leg was interrupted, or that it
-    keeps nothing: either way the rest is taken over (:func:`forgotten`)."""
+    keeps nothing: either way the rest is taken over (:func:`forgotten`). A leg sent and never
+    accepted is asked about the same way: a drone that never got it (sent while its link was
+    down) says it keeps nothing of it, and is sent it again (issue 26: a lost drone's way home,
+    sent as it came back, never arrived, and the mission never ended)."""
     try:
         beat = parse_message(Heartbeat, payload)
         speaks_for_itself(topic_name, beat.drone_id)
@@ -128,7 +141,7 @@ async def on_heartbeat(planner: MissionPlanner, topic_name: str, payload: bytes)
         for record in list(planner.missions.values())
         if not record.terminal
         for leg in record.active_legs()
-        if leg.drone_id == beat.drone_id and leg.state is LegState.RUNNING
+        if leg.drone_id == beat.drone_id
     ]
     if all(leg.leg_id == beat.mission_id for leg in running):
         planner.mismatched.pop(beat.drone_id, None)
@@ -143,10 +156,22 @@ async def on_heartbeat(planner: MissionPlanner, topic_name: str, payload: bytes)
 
 
 async def resume(planner: MissionPlanner) -> None:
-    """At start: finish what a ground restart interrupted (handovers decided, nobody chosen)."""
+    """At start, with the planner's lock held (no live report or alarm is read meanwhile):
+    finish what a ground restart interrupted (handovers decided, nobody chosen), and watch
+    again the drones the Drone Identifier still has lost."""
     for record in list(planner.missions.values()):
         if not record.terminal:
             await replacement.resume(planner, record)
+    if not any(not r.terminal and r.active_legs() for r in planner.missions.values()):
+        return
+    try:
+        drones = await planner.fleet.records()
+    except Exception as exc:
+        log.warning("planner: the Drone Identifier did not answer at start: %s", exc)
+        return
+    for drone in drones:
+        if drone.get("status") == "lost" and isinstance(drone.get("drone_id"), str):
+            on_lost(planner, drone["drone_id"], drone)
 
 
 async def watch_reconnects(planner: MissionPlanner) -> None:
@@ -168,21 +193,50 @@ async def on_fleet_event(planner: MissionPlanner, topic_name: str, payload: byte
         log.debug("planner: dropping fleet event on %s: %s", topic_name, exc)
         return
     if event.event is FleetChange.LOST:
-        planner.lost.add(event.drone_id)
-        for record in list(planner.missions.values()):
-            leg = None if record.terminal else record.leg_of(event.drone_id)
-            if leg is not None and not leg.role.outgoing:
-                why = f"drone {event.drone_id} lost: no heartbeat for 3 intervals"
-                job = lost.take_over(planner, record, leg, why, event.drone)
-                planner.spawn(job, f"lost:{leg.leg_id}")
+        on_lost(planner, event.drone_id, event.drone)
     elif event.event is FleetChange.ONLINE:
-        planner.lost.discard(event.drone_id)
-        for record in list(planner.missions.values()):
-            for leg in record.active_legs():
-                if leg.drone_id != event.drone_id:
-                    continue
-                if record.state is MissionState.STALLED and not record.handed_over(leg):
-                    await lost.unstall(planner, record, f"drone {leg.drone_id} is back")
-                if leg.role.outgoing:
-                    await planner.send_leg(record, leg)  # again: it may have been restarted
-        await ask_reports(planner, event.drone_id)
+        await back_online(planner, event.drone_id)
+
+
+def on_lost(planner: MissionPlanner, drone_id: str, heard: dict[str, Any] | None) -> None:
+    """``drone_id`` is declared lost: each of its legs doing work is taken over if it stays lost
+    (:func:`lost.confirm`); nothing is done to it meanwhile."""
+    if drone_id not in planner.lost:
+        planner.lost.add(drone_id)
+        planner.lost_epochs[drone_id] = planner.lost_epochs.get(drone_id, 0) + 1
+    epoch = planner.lost_epochs[drone_id]
+    for record in list(planner.missions.values()):
+        leg = None if record.terminal else record.leg_of(drone_id)
+        if leg is None or leg.role.outgoing or leg.leg_id in planner.confirming:
+            continue
+        planner.confirming.add(leg.leg_id)
+        planner.spawn(lost.confirm(planner, record, leg, heard, epoch), f"lost:{leg.leg_id}")
+
+
+async def back_online(planner: MissionPlanner, drone_id: str) -> None:
+    """``drone_id`` is heard again: a takeover of its work not yet started is called off (it
+    keeps its leg), a mission it stalled runs again, a leg taking it out is sent again (it may
+    have been restarted), and its reports are asked for."""
+    if drone_id in planner.lost:
+        planner.lost.discard(drone_id)
+        planner.lost_epochs[drone_id] = planner.lost_epochs.get(drone_id, 0) + 1
+    await lost.cancel(planner, drone_id)
+    for record in list(planner.missions.values()):
+        for leg in record.active_legs():
+            if leg.drone_id != drone_id:
+                continue
+            if (
+                record.state is MissionState.STALLED
+                and not record.handed_over(leg)
+                and not lost.stalled_by_others(planner, record, drone_id)
+            ):
+                await lost.unstall(planner, record, f"drone {leg.drone_id} is back")
+            if leg.role.outgoing:
+                await planner.send_leg(record, leg)  # again: it may have been restarted
+                if record.terminal:
+                    # A mission that completed while it was lost on its way out: what it flew
+                    # unheard is asked for too, and kept (reports.late).
+                    for own in record.legs:
+                        if own.drone_id == drone_id:
+                            await ask_leg_reports(planner, own)
+    await ask_reports(planner, drone_id)

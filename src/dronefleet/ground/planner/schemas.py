@@ -11,11 +11,18 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["LatLon", "MissionDetail", "MissionSummary", "Preview"]
+__all__ = ["LatLon", "MissionDetail", "MissionProgressView", "MissionSummary", "Preview"]
 
 from dronefleet.ground.planner.coverage import AreaSpec
 from dronefleet.ground.planner.ends import EndAction
-from dronefleet.ground.planner.models import Expansion, Handover, LatLon, Leg, MissionState
+from dronefleet.ground.planner.models import (
+    Expansion,
+    Handover,
+    LatLon,
+    Leg,
+    MissionEvent,
+    MissionState,
+)
 from dronefleet.ground.planner.options import RecordOptions
 from dronefleet.messaging.status import Alarm
 
@@ -74,7 +81,16 @@ class DroneShare(BaseModel):
     duration_s: float
     battery_used_pct: float
     battery_end_pct: float
+    #: Of those: the way home (its end, or the steps' own last land or RTL; 0 for ``hold``).
+    return_s: float = 0.0
+    return_battery_pct: float = 0.0
+    #: Who flies it: on board the autopilot, from the companion computer, or (None) as the drone
+    #: is configured; why not on board when it cannot be.
+    flown_by: Literal["autopilot", "companion"] | None = None
+    companion_reason: str | None = None
     notes: list[str]
+    #: Where its work steps fly, in order (the planner map colours each drone's route).
+    waypoints: list[LatLon] = []
 
 
 class ReadingFeature(BaseModel):
@@ -98,5 +114,43 @@ class Preview(BaseModel):
     area_m2: float | None
     angle_deg: float | None
     spacing_m: float | None
+    #: What the area's coverage target left uncovered: m², and the pieces as [lat, lon] rings.
+    uncovered_m2: float | None = None
+    uncovered: list[list[tuple[float, float]]] = []
     end_action: EndAction
     drones: list[DroneShare]
+
+
+class CurrentStep(BaseModel):
+    """The step a drone flies now: its number in the drone's leg, and in the mission's work."""
+
+    drone_step: int
+    drone_steps: int
+    index: int | None  # None: a step of the leg's own (arm, take off, the way home)
+    command: str
+
+
+class DroneProgress(BaseModel):
+    drone_id: str
+    role: str
+    #: flying, sent, paused, leaving, handed over, done, failed, stopped
+    doing: str
+    steps: int  # the work steps it was given (and did)
+    steps_done: int
+    waypoints: int
+    waypoints_reached: int
+    share: float  # steps_done / steps
+    current: CurrentStep | None
+    paused: str | None
+    #: Vehicle seconds left, estimated from where it is (ground/planner/eta.py); None: unknown.
+    eta_s: float | None
+    eta_pending: bool  # newer figures are on their way
+
+
+class MissionProgressView(MissionSummary):
+    """A mission as an operator watches it: per drone, and its timeline."""
+
+    fraction_done: float
+    eta_s: float | None  # the longest time left of its drones (vehicle seconds)
+    progress: list[DroneProgress]
+    events: list[MissionEvent]

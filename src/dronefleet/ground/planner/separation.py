@@ -20,12 +20,14 @@ points ever inside one cylinder at the same time"; the closed form is a dozen li
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from dronefleet.errors import InvalidInput
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
+from dronefleet.ground.planner.orphans import keep_out_of
 from dronefleet.ground.planner.trajectory import SAMPLE_S, Trajectory
 
 #: The separation minima: closer than both at once is a conflict.
@@ -47,14 +49,17 @@ class Conflict:
     position: LLA  # midway between the two
     horizontal_m: float
     vertical_m: float
+    minimum_m: float = HORIZONTAL_M  # the horizontal minimum there (more from a lost drone)
+    lost: str | None = None  # which of the two is a lost drone (ground/planner/orphans.py)
 
     def describe(self) -> str:
+        lost = f" ({self.lost} is lost: its last place is kept clear)" if self.lost else ""
         return (
             f"drones {self.drone_a} and {self.drone_b} would be {self.horizontal_m:.1f} m apart"
             f" horizontally and {self.vertical_m:.1f} m vertically {self.t_s:.1f} s after the"
             f" start, at {self.position.lat:.6f}, {self.position.lon:.6f},"
-            f" {self.position.alt_m:.1f} m (minimum {HORIZONTAL_M:g} m horizontally or"
-            f" {VERTICAL_M:g} m vertically)"
+            f" {self.position.alt_m:.1f} m (minimum {self.minimum_m:.3g} m horizontally or"
+            f" {VERTICAL_M:g} m vertically){lost}"
         )
 
 
@@ -63,16 +68,27 @@ class SeparationConflict(InvalidInput):
 
     def __init__(self, conflict: Conflict, tried: str = "") -> None:
         self.conflict = conflict
+        self.tried = tried
         message = f"separation: {conflict.describe()}"
         super().__init__(message + (f"; {tried}" if tried else ""))
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Raised in the planning worker's process and unpickled in the ground's: rebuilt from
+        # what it was made of (by default from its message, which is not a Conflict; the pool
+        # then broke for good and the ground could plan nothing more: issue 26).
+        return (type(self), (self.conflict, self.tried))
+
 
 def _interval_hits(
-    dn: np.ndarray, de: np.ndarray, du: np.ndarray, both_up: np.ndarray
+    dn: np.ndarray,
+    de: np.ndarray,
+    du: np.ndarray,
+    both_up: np.ndarray,
+    radius: np.ndarray | float = HORIZONTAL_M,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per interval k (samples k..k+1): whether the relative motion enters the cylinder, and the
-    fraction of the interval at which it first does."""
-    return _segment_hits(dn[:-1], dn[1:], de[:-1], de[1:], du[:-1], du[1:], both_up)
+    """Per interval k (samples k..k+1): whether the relative motion enters the cylinder (of
+    ``radius``, per interval), and the fraction of the interval at which it first does."""
+    return _segment_hits(dn[:-1], dn[1:], de[:-1], de[1:], du[:-1], du[1:], both_up, radius)
 
 
 def _segment_hits(
@@ -83,14 +99,15 @@ def _segment_hits(
     u0: np.ndarray,
     u1: np.ndarray,
     both_up: np.ndarray,
+    radius: np.ndarray | float = HORIZONTAL_M,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per straight relative segment (n0, e0, u0) -> (n1, e1, u1): whether it enters the
-    cylinder, and the fraction of the segment at which it first does."""
+    cylinder (of ``radius``), and the fraction of the segment at which it first does."""
     sn, se, su = n1 - n0, e1 - e0, u1 - u0
     # Horizontal: |(n0, e0) + s (sn, se)|² < R²  <=>  a s² + b s + c < 0.
     a = sn * sn + se * se
     b = 2.0 * (n0 * sn + e0 * se)
-    c = n0 * n0 + e0 * e0 - HORIZONTAL_M**2
+    c = n0 * n0 + e0 * e0 - np.square(radius)
     disc = b * b - 4.0 * a * c
     moving = a > 1e-12
     root = np.sqrt(np.where(disc > 0, disc, 0.0))
@@ -121,7 +138,8 @@ def first_conflict(a: Trajectory, b: Trajectory, *, origin: LLA) -> Conflict | N
     a, b = a.padded(length), b.padded(length)
     dn, de, du = a.n_m - b.n_m, a.e_m - b.e_m, a.up_m - b.up_m
     up = a.in_air & b.in_air
-    hits, entry = _interval_hits(dn, de, du, up[:-1] & up[1:])
+    radius = minimum_m(a, b)
+    hits, entry = _interval_hits(dn, de, du, up[:-1] & up[1:], radius)
     if not hits.any():
         return None
     k = int(np.argmax(hits))
@@ -144,6 +162,7 @@ def first_conflict(a: Trajectory, b: Trajectory, *, origin: LLA) -> Conflict | N
         (lerp(a.e_m) + lerp(b.e_m)) / 2,
         -(lerp(a.up_m) + lerp(b.up_m)) / 2,
     )
+    lost = next((p.drone_id for p in (b, a) if keep_out_of(p) is not None), None)
     return Conflict(
         a.drone_id,
         b.drone_id,
@@ -151,7 +170,29 @@ def first_conflict(a: Trajectory, b: Trajectory, *, origin: LLA) -> Conflict | N
         ned_to_lla(mid, origin),
         horizontal_m=float(np.hypot(lerp(dn), lerp(de))),
         vertical_m=abs(lerp(du)),
+        minimum_m=_at(radius, k),
+        lost=lost,
     )
+
+
+def _at(radius: np.ndarray | float, k: int) -> float:
+    if isinstance(radius, np.ndarray):
+        return float(radius[min(k, len(radius) - 1)])
+    return float(radius)
+
+
+def minimum_m(a: Trajectory, b: Trajectory) -> np.ndarray | float:
+    """The horizontal minimum between ``a`` and ``b`` (padded alike), per interval: the
+    separation minimum, or more from a lost drone (:func:`.orphans.keep_out_of`)."""
+    kept = [k for k in (keep_out_of(a), keep_out_of(b)) if k is not None]
+    if not kept:
+        return HORIZONTAL_M
+    length = len(a.n_m)
+    radius = np.full(max(length - 1, 1), HORIZONTAL_M)
+    for k in kept:
+        k = np.concatenate([k, np.full(max(0, length - len(k)), k[-1])])[:length]
+        radius = np.maximum(radius, np.maximum(k[:-1], k[1:]) if length > 1 else k[:1])
+    return radius
 
 
 #: Seconds ahead the live monitor extrapolates velocities (ground/separation_monitor.py).

@@ -5,6 +5,10 @@ It sends each drone its leg of a mission on ``<id>/mission/in``, follows ``+/mis
 persistent (QoS 1), so progress and alarms published while the planner is down are delivered when
 it comes back, and tracking carries on where it stopped. A CRITICAL alarm starts a replacement
 (:mod:`.replacement`); an OUT_MEASURE alarm grows the area (:mod:`.collaboration`).
+
+The reports are read in :mod:`.reports`, the alarms in :mod:`.alarms`; a mission's end is decided
+and written in :mod:`.settling`; stop, abort, pause and resume of a whole mission are in
+:mod:`.mission_ops`. The planner keeps the state they share, its lock and its tasks.
 """
 
 from __future__ import annotations
@@ -16,12 +20,18 @@ from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
-from dronefleet.clock import timestamp_s
 from dronefleet.errors import Conflict, InvalidInput, NotFound
-from dronefleet.ground.planner import paths, reconcile
+from dronefleet.ground.planner import (
+    alarms,
+    mission_ops,
+    paths,
+    reconcile,
+    reports,
+    settling,
+    timeline,
+)
 from dronefleet.ground.planner.ends import GO_HOME
 from dronefleet.ground.planner.fleet_view import FleetView
-from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
     Leg,
     LegState,
@@ -29,25 +39,17 @@ from dronefleet.ground.planner.models import (
     MissionState,
 )
 from dronefleet.ground.planner.options import LegRole
-from dronefleet.ground.planner.progress import apply_progress, note_seq
 from dronefleet.ground.planner.store import MissionStore
-from dronefleet.ground.planner.units import remaining
 from dronefleet.ground.planner.worker import PlanningWorker
 from dronefleet.ground.state import StateStore
 from dronefleet.messaging.client import QOS_COMMAND, QOS_STREAM, BrokerClient
-from dronefleet.messaging.codec import MessageError
-from dronefleet.messaging.commands import AlarmLevel, Command
 from dronefleet.messaging.ground_events import PlannerEvent
-from dronefleet.messaging.inbound import parse_message, speaks_for_itself
-from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.missions import (
     MissionAction,
-    MissionProgress,
     MissionRequest,
-    ProgressEvent,
 )
 from dronefleet.messaging.rpc import Requester
-from dronefleet.messaging.status import Alarm, Telemetry
+from dronefleet.messaging.status import Telemetry
 from dronefleet.messaging.topics import (
     IDENTIFIER_EVENTS,
     PLANNER_EVENTS,
@@ -58,9 +60,6 @@ from dronefleet.messaging.topics import (
 )
 
 log = logging.getLogger(__name__)
-_throttle = LogThrottle(
-    log
-)  # one line per kind per 10 s: junk on the broker must not flood the log
 
 
 class PlannerError(InvalidInput):
@@ -93,7 +92,7 @@ class MissionPlanner:
         self.max_altitude_m = max_altitude_m
         self.reserve_pct = reserve_pct
         self.missions: dict[str, MissionRecord] = {}
-        self._legs: dict[str, str] = {}  # leg id -> mission id
+        self.leg_missions: dict[str, str] = {}  # leg id -> mission id
         self._lock = asyncio.Lock()
         self._listeners: list[Callable[[str, dict[str, Any]], Any]] = []
         self._tasks: set[asyncio.Task[Any]] = set()
@@ -102,8 +101,13 @@ class MissionPlanner:
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self._checking: set[str] = set()  # legs whose early-replacement check is running
         self.gap_asked: dict[str, float] = {}  # leg id -> when its missing reports were asked
+        self.gap_since: dict[str, float] = {}  # leg id -> when its gap first held its mission open
+        self.resettling: set[str] = set()  # missions whose settling waits for a refill
         self.mismatched: dict[str, int] = {}  # drone id -> heartbeats naming another mission
         self.lost: set[str] = set()  # drones the Drone Identifier last declared lost
+        self.lost_epochs: dict[str, int] = {}  # drone id -> times it was declared lost or back
+        self.confirming: set[str] = set()  # legs whose drone's loss is being confirmed
+        self.trimming: set[str] = set()  # replacement legs about to be cut (lost.flew_unheard)
 
     @property
     def lock(self) -> asyncio.Lock:
@@ -120,28 +124,32 @@ class MissionPlanner:
         await self.store.open()
         for record in await self.store.load_all():
             self._track(record)
-        await self.client.start(timeout_s=None)
-        await self.client.subscribe(any_drone(Channel.MISSION), self._on_progress, qos=QOS_COMMAND)
-        await self.client.subscribe(any_drone(Channel.ALARMS), self._on_alarm, qos=QOS_COMMAND)
-        await self.client.subscribe(
-            any_drone(Channel.TELEMETRY), self._on_telemetry, qos=QOS_STREAM
-        )
-        await self.client.subscribe(
-            any_drone(Channel.HEARTBEATS),
-            lambda t, p: reconcile.on_heartbeat(self, t, p),
-            qos=QOS_STREAM,
-        )
-        await self.client.subscribe(
-            IDENTIFIER_EVENTS,
-            lambda t, p: reconcile.on_fleet_event(self, t, p),
-            qos=QOS_STREAM,
-        )
-        await self.client.wait_connected(15)
-        self._flusher = asyncio.create_task(self._flush_paths(), name="planner:paths")
-        # Whatever was published while the planner was away (not every broker queues for an
-        # offline session) is asked for again, at start and after every reconnect.
-        await reconcile.ask_reports(self)
-        self.spawn(reconcile.resume(self), "planner:resume")
+        # The lock is held until what a restart interrupted is finished (reconcile.resume):
+        # reports and alarms the broker kept for this session are read after, not in between
+        # (issue 26: a report read first closed a mission being resumed; an alarm delivered
+        # again raced the resumed handover).
+        async with self._lock:
+            await self.client.start(timeout_s=None)
+            await self.client.subscribe(
+                any_drone(Channel.MISSION), self._on_progress, qos=QOS_COMMAND
+            )
+            await self.client.subscribe(any_drone(Channel.ALARMS), self._on_alarm, qos=QOS_COMMAND)
+            await self.client.subscribe(
+                any_drone(Channel.HEARTBEATS),
+                lambda t, p: reconcile.on_heartbeat(self, t, p),
+                qos=QOS_STREAM,
+            )
+            await self.client.subscribe(
+                IDENTIFIER_EVENTS,
+                lambda t, p: reconcile.on_fleet_event(self, t, p),
+                qos=QOS_STREAM,
+            )
+            await self.client.wait_connected(15)
+            self._flusher = asyncio.create_task(self._flush_paths(), name="planner:paths")
+            # Whatever was published while the planner was away (not every broker queues for an
+            # offline session) is asked for again, at start and after every reconnect.
+            await reconcile.ask_reports(self)
+            await reconcile.resume(self)
         self.spawn(reconcile.watch_reconnects(self), "planner:reconnects")
         return self
 
@@ -161,13 +169,16 @@ class MissionPlanner:
     def _track(self, record: MissionRecord) -> None:
         self.missions[record.mission_id] = record
         for leg in record.legs:
-            self._legs[leg.leg_id] = record.mission_id
+            self.leg_missions[leg.leg_id] = record.mission_id
 
     def add_listener(self, listener: Callable[[str, dict[str, Any]], Any]) -> None:
         """``listener(event, data)`` for every mission event (the WebSocket hub, experiments)."""
         self._listeners.append(listener)
 
     def emit(self, event: str, /, **data: Any) -> None:
+        record = self.missions.get(str(data.get("mission_id")))
+        if record is not None and timeline.note(record, event, data):
+            self._dirty.add(record.mission_id)  # written within 2 s (_flush_paths)
         if event in ("mission", "handover", "expansion", "leg"):
             # Ground-wide announcement (the WebSocket stream); progress and alarms already
             # travel on the drones' own topics.
@@ -222,12 +233,28 @@ class MissionPlanner:
             for leg in r.active_legs()
         }
 
+    def mission_of(
+        self, drone_id: str, leg_id: str | None
+    ) -> tuple[MissionRecord | None, Leg | None]:
+        """The unfinished mission and active leg a message from ``drone_id`` (about ``leg_id``,
+        when it names one) is about; (None, None) when none."""
+        mission_id = self.leg_missions.get(leg_id) if leg_id else None
+        records = [self.missions[mission_id]] if mission_id else list(self.missions.values())
+        for record in records:
+            if record.terminal:
+                continue
+            leg = record.leg(leg_id) if leg_id else None
+            leg = leg if leg is not None and leg.active else record.leg_of(drone_id)
+            if leg is not None and leg.drone_id == drone_id:
+                return record, leg
+        return None, None
+
     # -- sending -----------------------------------------------------------------------------
     async def send_leg(self, record: MissionRecord, leg: Leg) -> None:
         """Record the leg durably, then send it to its drone (QoS 1)."""
         if record.leg(leg.leg_id) is None:
             record.legs.append(leg)
-        self._legs[leg.leg_id] = record.mission_id
+        self.leg_missions[leg.leg_id] = record.mission_id
         await self.save(record)
         request = MissionRequest(
             mission_id=leg.leg_id,
@@ -250,20 +277,8 @@ class MissionPlanner:
         )
 
     async def stop_mission(self, mission_id: str, *, home: bool = False) -> MissionRecord:
-        """Stop a mission: its drones hold where they are, or (``home``: an abort) each is sent
-        a leg that replaces what it flies with a return home (RTL)."""
-        async with self._lock:
-            record = self.get(mission_id)
-            if record.terminal:
-                return record
-            for leg in record.active_legs():
-                if home:
-                    await self.send_home(record, leg)
-                else:
-                    await self.stop_leg(leg)
-            why = "aborted on request: its drones were sent home" if home else "stopped on request"
-            await self._finish(record, MissionState.STOPPED, why)
-            return record
+        """Stop a mission, or abort it (``home``): mission_ops.stop_mission."""
+        return await mission_ops.stop_mission(self, mission_id, home=home)
 
     async def send_home(self, record: MissionRecord, leg: Leg) -> None:
         """End ``leg`` and send its drone home (RTL, then land) with a leg nothing waits for:
@@ -279,31 +294,16 @@ class MissionPlanner:
         await self.send_leg(record, going)
 
     async def abort_all(self) -> list[MissionRecord]:
-        """Abort every unfinished mission (its drones sent home); the missions aborted."""
-        unfinished = [r.mission_id for r in list(self.missions.values()) if not r.terminal]
-        return [await self.stop_mission(mission_id, home=True) for mission_id in unfinished]
+        """Abort every unfinished mission: mission_ops.abort_all."""
+        return await mission_ops.abort_all(self)
 
     async def pause_mission(self, mission_id: str) -> MissionRecord:
-        """Ask each drone of a running mission to hold and keep its steps left (each answers
-        ``paused``; the mission is then paused until resumed)."""
-        async with self._lock:
-            record = self.get(mission_id)
-            flying = [leg for leg in record.active_legs() if not leg.paused]
-            if record.terminal or record.state is MissionState.PLANNED or not flying:
-                raise Conflict(f"mission {mission_id} is {record.state.value}: nothing to pause")
-            await self.ask_legs(flying, MissionAction.PAUSE)
-            return record
+        """Ask each drone of a running mission to hold: mission_ops.pause_mission."""
+        return await mission_ops.pause_mission(self, mission_id)
 
     async def resume_mission(self, mission_id: str) -> MissionRecord:
-        """Ask each paused drone of a mission (taken over, or paused on request) to fly on with
-        its leg (each answers ``resumed``, or ``paused`` again with why not: on the ground)."""
-        async with self._lock:
-            record = self.get(mission_id)
-            paused = [leg for leg in record.active_legs() if leg.paused]
-            if record.state is not MissionState.PAUSED or not paused:
-                raise Conflict(f"mission {mission_id} is {record.state.value}, not paused")
-            await self.ask_legs(paused, MissionAction.RESUME)
-            return record
+        """Ask each paused drone of a mission to fly on: mission_ops.resume_mission."""
+        return await mission_ops.resume_mission(self, mission_id)
 
     async def ask_legs(self, legs: list[Leg], action: MissionAction) -> None:
         """Send each leg's drone ``action`` (pause, resume) for that leg."""
@@ -314,133 +314,35 @@ class MissionPlanner:
                 qos=QOS_COMMAND,
             )
 
-    # -- progress ----------------------------------------------------------------------------
+    # -- progress and the end of a mission (reports.py, settling.py) -------------------------
     async def _on_progress(self, topic_name: str, payload: bytes) -> None:
-        try:
-            msg = parse_message(MissionProgress, payload)
-            speaks_for_itself(topic_name, msg.drone_id)
-        except MessageError as exc:
-            self.dropped["progress"] += 1
-            _throttle.log(
-                logging.WARNING, "progress", "dropping progress on %s: %s", topic_name, exc
-            )
-            return
-        mission_id = self._legs.get(msg.mission_id)
-        if mission_id is None:
-            return  # not one of ours (a mission sent by hand, or the demo)
-        async with self._lock:
-            record = self.missions[mission_id]
-            leg = record.leg(msg.mission_id)
-            if leg is None or record.terminal or leg.drone_id != msg.drone_id:
-                return
-            if reconcile.answers_a_report_request(msg):
-                self.spawn(reconcile.forgotten(self, record, leg), f"forgotten:{leg.leg_id}")
-                return
-            if apply_progress(record, leg, msg):  # a step reported for the first time
-                paths.add_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
-            if note_seq(leg, msg.seq):
-                self.spawn(reconcile.fill_gap(self, leg), f"gap:{leg.leg_id}")
-            await self.save(record)
-        data = msg.model_dump(mode="json", exclude_none=True)
-        self.emit("progress", **{**data, "mission_id": mission_id, "leg_id": leg.leg_id})
-        await self.after_progress(record, leg, msg)
-        if msg.event is ProgressEvent.STEP and leg.active and leg.leg_id not in self._checking:
-            from dronefleet.ground.planner import early
+        await reports.on_progress(self, topic_name, payload)
 
-            self._checking.add(leg.leg_id)
-            self.spawn(early.check(self, record, leg), f"early:{leg.leg_id}")
+    async def settle_locked(self, record: MissionRecord) -> None:
+        """(The lock held.) End the mission if every leg has ended: settling.settle_locked."""
+        await settling.settle_locked(self, record)
 
-    async def after_progress(self, record: MissionRecord, leg: Leg, msg: MissionProgress) -> None:
-        """Close the mission when nothing is left to fly, or fail it when a leg failed."""
-        async with self._lock:
-            if record.terminal or any(self._holds_open(record, lg) for lg in record.active_legs()):
-                return
-            # Every leg has ended (or its drone is lost, its work taken over): so has the mission;
-            # its state follows from its legs'.
-            left = remaining(record.work, record.required_indices(), set(record.done))
-            if not left:
-                await self._finish(record, MissionState.COMPLETED)
-            elif any(lg.state is LegState.FAILED for lg in record.legs):
-                failed = next(lg for lg in reversed(record.legs) if lg.state is LegState.FAILED)
-                await self._finish(record, MissionState.FAILED, failed.error or "a leg failed")
-            else:
-                why = f"every leg ended with {len(left)} steps not flown"
-                await self._finish(record, MissionState.FAILED, record.error or why)
-
-    def _holds_open(self, record: MissionRecord, leg: Leg) -> bool:
-        """Whether active ``leg`` keeps its mission open: its drone is heard, or it is lost with
-        work nobody has taken over (the mission is then stalled until it is back). A lost
-        drone's way out (going home, landing) holds nothing open."""
-        if leg.drone_id not in self.lost:
-            return True
-        return not leg.role.outgoing and not record.handed_over(leg)
-
-    async def _finish(
+    async def finish(
         self, record: MissionRecord, state: MissionState, error: str | None = None
     ) -> None:
-        record.state = state
-        record.ended_at = timestamp_s()
-        record.error = error
-        await self.save(record)
-        await self.store.save_log(record.mission_id, build_log(record))
-        self.emit("mission", **record.summary())
-        log.info("mission %s %s", record.mission_id, state.value)
+        """End ``record`` as ``state`` (with ``error``): settling.finish."""
+        await settling.finish(self, record, state, error)
 
-    # -- alarms ------------------------------------------------------------------------------
+    async def back_online(self, drone_id: str) -> None:
+        """``drone_id`` is heard again (reconcile.back_online)."""
+        await reconcile.back_online(self, drone_id)
+
+    # -- alarms (alarms.py) ------------------------------------------------------------------
     async def _on_alarm(self, topic_name: str, payload: bytes) -> None:
-        try:
-            alarm = parse_message(Alarm, payload)
-            speaks_for_itself(topic_name, alarm.drone_id)
-        except MessageError as exc:
-            self.dropped["alarm"] += 1
-            _throttle.log(logging.WARNING, "alarm", "dropping alarm on %s: %s", topic_name, exc)
-            return
-        data = alarm.model_dump(mode="json", exclude_none=True)
-        async with self._lock:
-            record, leg = self._mission_of(alarm.drone_id, alarm.mission_id)
-            if record is None or leg is None:
-                self.emit("alarm", **data)
-                return
-            if any(a.timestamp == alarm.timestamp for a in record.alarms):
-                return  # duplicate delivery
-            record.alarms.append(alarm)
-            index = leg.global_index(alarm.step_index) if alarm.step_index is not None else None
-            if index is not None and record.work[index].get("command") == Command.VIRTUALALARM:
-                record.done.setdefault(index, alarm.drone_id)
-            await self.save(record)
-        self.emit("alarm", **{**data, "mission_id": record.mission_id})
-        from dronefleet.ground.planner import collaboration, replacement
-
-        if alarm.level is AlarmLevel.CRITICAL and record.options.replacement:
-            self.spawn(replacement.replace(self, record, leg, alarm), f"replace:{alarm.drone_id}")
-        elif alarm.level is AlarmLevel.OUT_MEASURE and record.options.collaboration:
-            self.spawn(collaboration.extend(self, record, leg, alarm), f"extend:{alarm.drone_id}")
-
-    def _mission_of(
-        self, drone_id: str, leg_id: str | None
-    ) -> tuple[MissionRecord | None, Leg | None]:
-        mission_id = self._legs.get(leg_id) if leg_id else None
-        records = [self.missions[mission_id]] if mission_id else list(self.missions.values())
-        for record in records:
-            if record.terminal:
-                continue
-            leg = record.leg(leg_id) if leg_id else None
-            leg = leg if leg is not None and leg.active else record.leg_of(drone_id)
-            if leg is not None and leg.drone_id == drone_id:
-                return record, leg
-        return None, None
+        await alarms.on_alarm(self, topic_name, payload)
 
     # -- paths -------------------------------------------------------------------------------
-    async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
-        try:
-            msg = parse_message(Telemetry, payload)
-            speaks_for_itself(topic_name, msg.drone_id)
-        except MessageError:
-            return  # counted and dropped by the telemetry connector, which stores it
+    def on_telemetry(self, msg: Telemetry) -> None:
+        """A drone's telemetry, as the ground's Fleet Inbox read it (ground/inbox.py)."""
         fields = msg.fields
         if "battery_pct" in fields and "lat" in fields:
             self.latest[msg.drone_id] = {**fields, "vehicle_time_s": msg.vehicle_time_s}
-        record, _leg = self._mission_of(msg.drone_id, None)
+        record, _leg = self.mission_of(msg.drone_id, None)
         if record is None:
             return
         if paths.add_point(record, msg.drone_id, msg.vehicle_time_s, paths.position_of(fields)):

@@ -56,8 +56,9 @@ class MissionStore:
         blob = orjson.dumps(log)
         await self.state.write(
             (
-                "INSERT OR REPLACE INTO mission_logs (mission_id, log, written_at) "
-                "VALUES (?, ?, ?)",
+                "INSERT INTO mission_logs (mission_id, log, written_at) VALUES (?, ?, ?) "
+                "ON CONFLICT(mission_id) DO UPDATE SET log=excluded.log, "
+                "written_at=excluded.written_at",
                 (mission_id, blob, timestamp_s()),
             )
         )

@@ -3,7 +3,10 @@
 Gathered on the event loop from the planner's own records (cheap: lists of steps), predicted in
 the planning worker (:mod:`.deconflict`). A drone flying a leg will fly the steps it has not
 reported yet, from where its last heartbeat put it; one hovering with no mission stays where it
-is; one on the ground with no mission is not traffic.
+is; one on the ground with no mission is not traffic. A drone in the air that the ground no
+longer hears (lost, or its autopilot's link lost) is an orphan (ground/planner/orphans.py): its
+last place, its way to its goal and its drift are kept clear, as well as the rest of its leg
+(it may be flying on), until it is heard again.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+from dronefleet.ground.planner import orphans
 from dronefleet.ground.planner.deconflict import Placed, Share, separate
 from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.models import Leg, MissionRecord
@@ -34,11 +38,22 @@ def remaining_steps(leg: Leg, work: list[dict[str, Any]]) -> list[dict[str, Any]
 
 
 def traffic(
-    missions: Iterable[MissionRecord], fleet: Iterable[DroneView], exclude: set[str]
+    missions: Iterable[MissionRecord],
+    fleet: Iterable[DroneView],
+    exclude: set[str],
+    *,
+    latest: dict[str, dict[str, Any]] | None = None,
 ) -> list[Share]:
-    """Every drone not in ``exclude`` that is or will be in the air, as a share flown as is."""
+    """Every drone not in ``exclude`` that is or will be in the air, as a share flown as is, and
+    every orphan (a drone in the air not heard: :func:`orphan_of`, from its ``latest``
+    telemetry when the planner has it)."""
     views = {d.drone_id: d for d in fleet}
     found: dict[str, Share] = {}
+    orphans = [
+        orphan_of(d, (latest or {}).get(d.drone_id))
+        for d in views.values()
+        if not d.online and d.airborne and d.drone_id not in exclude
+    ]
     for record in missions:
         if record.terminal:
             continue
@@ -57,11 +72,27 @@ def traffic(
             found[drone.drone_id] = Share(
                 drone.drone_id, [], [], [], drone.position, drone.home, True, drone.flight
             )
-    return list(found.values())
+    return [*found.values(), *orphans]
 
 
-def _separate(shares: list[Share], others: list[Share], ceiling_m: float | None) -> list[Placed]:
-    return separate(shares, others, ceiling_m=ceiling_m)
+def orphan_of(drone: DroneView, telemetry: dict[str, Any] | None = None) -> Share:
+    """``drone`` (not heard, in the air) as traffic: kept clear of where it was."""
+    orphan = orphans.of_drone(
+        drone.drone_id,
+        drone.position,
+        telemetry=telemetry,
+        speed_mps=drone.ground_speed_mps,
+        age_s=drone.seen_ago_s,
+    )
+    return Share(
+        drone.drone_id, [], [], [], orphan.last, drone.home, True, drone.flight, orphan=orphan
+    )
+
+
+def _separate(
+    shares: list[Share], others: list[Share], ceiling_m: float | None, alter_work: bool = False
+) -> list[Placed]:
+    return separate(shares, others, ceiling_m=ceiling_m, alter_work=alter_work)
 
 
 async def keep_apart(
@@ -70,11 +101,15 @@ async def keep_apart(
     shares: list[Share],
     *,
     also: Iterable[Share] = (),
+    alter_work: bool = False,
 ) -> list[Placed]:
-    """``shares`` placed clear of every other drone in the air and of ``also`` (drones whose
-    next steps are decided but not yet sent), in the planning worker. Raises
+    """``shares`` placed clear of every other drone in the air, of every orphan, and of ``also``
+    (drones whose next steps are decided but not yet sent), in the planning worker; with
+    ``alter_work``, their work may change near an orphan (the caller sends
+    :attr:`~.deconflict.Placed.work`). Raises
     :class:`~dronefleet.ground.planner.separation.SeparationConflict` when they cannot be."""
     extra = list(also)
     mine = {s.drone_id for s in [*shares, *extra]}
-    others = traffic(planner.missions.values(), fleet, exclude=mine) + extra
-    return await planner.worker.run(_separate, shares, others, planner.max_altitude_m)
+    others = traffic(planner.missions.values(), fleet, exclude=mine, latest=planner.latest)
+    others += extra
+    return await planner.worker.run(_separate, shares, others, planner.max_altitude_m, alter_work)

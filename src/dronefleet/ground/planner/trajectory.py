@@ -3,12 +3,11 @@
 The Mission Planner (seed 4.2.4) already replays steps with the vehicle model to know how long
 they take (:mod:`.estimate`); the separation check (:mod:`.separation`) needs the same replay as
 a path in time. :func:`predict` flies the steps with the estimator's own state
-(:class:`~dronefleet.ground.planner.estimate` ``_State``: trapezoidal legs, climb while flying,
+(:class:`~dronefleet.ground.planner.estimate.state._State`: trapezoidal legs, climb while flying,
 the Mission Worker's ``wait_for_flight`` polling, photo stops, holds, landing) and samples the
 position every :data:`SAMPLE_S` vehicle seconds, so a predicted path and a predicted duration
-can never disagree. The one thing the estimator does not fly is ``rtl``; here it is flown as the
-Navigation Processor flies it (``drone/navigation.py``): home at ``max(height, RTL_ALT_M)``,
-climbing while flying, then down once within the horizontal tolerance.
+can never disagree, the way home included (``rtl``: the autopilot's own RTL or the Navigation
+Processor's, as :mod:`.estimate` flies it).
 
 Positions are kept in one local frame for every drone of a check (north, east, up from an
 ``origin``), as numpy arrays on a uniform time grid that starts now, so two paths are compared
@@ -26,7 +25,8 @@ import numpy as np
 
 from dronefleet.geo.ned import lla_to_ned
 from dronefleet.geo.types import LLA
-from dronefleet.ground.planner.estimate import DEFAULT_MODEL, VehicleModel, _State
+from dronefleet.ground.planner.estimate import DEFAULT_MODEL, VehicleModel
+from dronefleet.ground.planner.estimate.state import _State
 
 #: Vehicle seconds between two samples of a predicted path. Conflicts between samples are
 #: found exactly (the check interpolates linearly), so this only bounds the error of taking the
@@ -34,7 +34,7 @@ from dronefleet.ground.planner.estimate import DEFAULT_MODEL, VehicleModel, _Sta
 SAMPLE_S = 0.5
 #: Height of a flight home without the autopilot's own RTL: the drone's RTL_ALT_M
 #: (drone/navigation.py, ArduPilot's RTL_ALT default); tests keep the two equal.
-RTL_ALT_M = 15.0
+RTL_ALT_M = DEFAULT_MODEL.rtl_alt_m
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,6 @@ class _Recorder(_State):
 
     clock_s: float = 0.0
     samples: list[tuple[float, float, float, bool]] = field(default_factory=list)
-    homing: bool = False  # flying an RTL: the next wait_for_flight ends on the ground at home
 
     def record(self) -> None:
         self.samples.append((self.n, self.e, self.h, self.in_air))
@@ -129,23 +128,6 @@ class _Recorder(_State):
             self.record()
         super().advance(end - self.clock_s)
         self.clock_s = end
-
-    def run(self, step: dict[str, Any], home: LLA) -> float:
-        command = step.get("command")
-        if command == "rtl":
-            if self.in_air:
-                self.go(0.0, 0.0, max(self.h, RTL_ALT_M), "rtl")
-                self.homing = True
-            else:
-                self.homing = False
-            return 0.0
-        if command == "wait_for_flight" and self.homing:
-            self.homing = False
-            flown = super().run({"command": "wait_for_flight", "vertical_tolerance_m": 1e6}, home)
-            return flown + super().run({"command": "land"}, home) + super().run(step, home)
-        if command in ("navigate", "land", "takeoff", "changeN", "changeE", "altitude"):
-            self.homing = False
-        return super().run(step, home)
 
 
 def predict(
@@ -172,6 +154,7 @@ def predict(
     state.record()
     for step in steps:
         state.run(step, home)
+    state.finish_homing()  # an rtl nobody waits for: the vehicle still flies home
     # On to the next sample, so that the grid stays uniform to the end.
     last_s = (len(state.samples) - 1) * SAMPLE_S
     if state.clock_s > last_s + 1e-9:

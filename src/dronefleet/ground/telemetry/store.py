@@ -4,12 +4,17 @@ Two stores answer the same queries the same way: ``sqlite:///path`` (embedded de
 ``influxdb://host:8086/db`` (the seed's InfluxDB, v1 HTTP API). A query asks for one drone's
 fields over ``[from, to)`` downsampled to ``every``: buckets aligned to the Unix epoch, the mean of
 each field per bucket, empty buckets left out (InfluxDB's ``GROUP BY time(every) fill(none)``).
+
+SQLite URLs follow SQLAlchemy's convention (issue 29): ``sqlite:///var/t.db`` is ``var/t.db``,
+relative to the working folder, and four slashes, ``sqlite:////var/t.db``, the absolute
+``/var/t.db`` (:func:`sqlite_path`, :func:`sqlite_url`).
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from os import PathLike, fspath
 from typing import Protocol
 from urllib.parse import urlsplit
 
@@ -84,16 +89,36 @@ def round_value(value: float) -> float:
     return float(f"{value:.9g}")
 
 
+def sqlite_path(url: str) -> str:
+    """The file a ``sqlite:`` URL names, as SQLAlchemy reads it: what follows ``sqlite:///`` is
+    the path, so ``sqlite:///var/t.db`` is relative (``var/t.db``) and ``sqlite:////var/t.db``
+    absolute (``/var/t.db``); ``sqlite://``, ``sqlite://:memory:`` and ``sqlite:///:memory:`` are
+    an in-memory database. Raises ValueError for a host (``sqlite://host/t.db``)."""
+    parts = urlsplit(url)
+    if parts.netloc in ("", ":memory:") and parts.path in ("", "/", "/:memory:"):
+        return ":memory:"
+    if parts.netloc:
+        raise ValueError(
+            f"telemetry store URL {url!r}: a SQLite file has no host; use sqlite:///relative/path "
+            "or sqlite:////absolute/path"
+        )
+    # Drop the one slash between "sqlite://" and the path; an absolute path keeps its own.
+    return parts.path[1:]
+
+
+def sqlite_url(path: str | PathLike[str]) -> str:
+    """The ``sqlite:`` URL of ``path``: ``sqlite:////abs/t.db`` for an absolute path."""
+    return f"sqlite:///{fspath(path)}"
+
+
 def open_store(url: str) -> TelemetryStore:
-    """A store for ``sqlite:///path``, ``sqlite://:memory:`` or ``influxdb://host:port/db``."""
+    """A store for ``sqlite:///path`` (:func:`sqlite_path`), ``sqlite://:memory:`` or
+    ``influxdb://host:port/db``."""
     parts = urlsplit(url)
     if parts.scheme == "sqlite":
         from dronefleet.ground.telemetry.sqlite_store import SqliteTelemetryStore
 
-        path = parts.path or parts.netloc
-        if parts.netloc == ":memory:" or path in {"", "/:memory:", ":memory:"}:
-            path = ":memory:"
-        return SqliteTelemetryStore(path, url=url)
+        return SqliteTelemetryStore(sqlite_path(url), url=url)
     if parts.scheme in {"influxdb", "influx"}:
         from dronefleet.ground.telemetry.influx_store import InfluxTelemetryStore
 
@@ -106,4 +131,7 @@ def open_store(url: str) -> TelemetryStore:
             password=parts.password,
             url=url,
         )
-    raise ValueError(f"telemetry store URL {url!r}: use sqlite:///path or influxdb://host:port/db")
+    raise ValueError(
+        f"telemetry store URL {url!r}: use sqlite:///relative/path, sqlite:////absolute/path or "
+        "influxdb://host:port/db"
+    )

@@ -122,11 +122,105 @@ def loiter_time(lat: float, lon: float, altitude_m: float, seconds: float) -> Mi
 
 
 def land(lat: float = 0.0, lon: float = 0.0) -> MissionItem:
+    """NAV_LAND; 0, 0: where the vehicle is then, which :func:`placed` writes in."""
     return MissionItem(mav.MAV_CMD_NAV_LAND).at(lat, lon)
 
 
 def return_to_launch() -> MissionItem:
+    """NAV_RETURN_TO_LAUNCH (20): the autopilot's own RTL (ArduPilot: to RTL_ALT, home or the
+    nearest rally point, land)."""
     return MissionItem(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+
+
+def loiter_unlimited(lat: float, lon: float, altitude_m: float) -> MissionItem:
+    """NAV_LOITER_UNLIM (17): hold there until told otherwise (a mission that ends in the air)."""
+    return MissionItem(mav.MAV_CMD_NAV_LOITER_UNLIM, z=altitude_m).at(lat, lon)
+
+
+#: NAV items whose 0, 0 means "where the vehicle is" to the builders above.
+_HERE_WHEN_ZERO = frozenset({mav.MAV_CMD_NAV_TAKEOFF, mav.MAV_CMD_NAV_LAND})
+
+
+def placed(items: list[MissionItem], lat: float, lon: float) -> list[MissionItem]:
+    """``items`` with no 0, 0 they do not mean: a NAV_TAKEOFF or NAV_LAND left at 0, 0 gets
+    the place the vehicle will be when it flies it — the last position before it in the
+    mission, else ``lat``, ``lon`` (the vehicle now). ArduPilot reads 0, 0 there as
+    "the current location", but PX4 flies to it (measured on SITL b765769f50: a take-off item at
+    0, 0 sent the vehicle towards 0°N 0°E), and MISSION_ITEM_INT's int32 x/y cannot carry the
+    NaN "use the current position" of MISSION_ITEM (MAVLink common.xml). Copter's take-off only
+    climbs and its land at a position flies there first, which here is where it already is."""
+    last = (round(lat * 1e7), round(lon * 1e7))
+    out: list[MissionItem] = []
+    for item in items:
+        if item.command in _HERE_WHEN_ZERO and item.x == 0 and item.y == 0:
+            item = replace(item, x=last[0], y=last[1])
+        elif item.is_nav and (item.x, item.y) != (0, 0):
+            last = (item.x, item.y)
+        out.append(item)
+    return out
+
+
+#: Items that carry a position (x/y/z): every other one goes as MAV_FRAME_MISSION to PX4.
+_POSITIONED = frozenset(
+    {
+        mav.MAV_CMD_NAV_WAYPOINT,
+        mav.MAV_CMD_NAV_TAKEOFF,
+        mav.MAV_CMD_NAV_LAND,
+        mav.MAV_CMD_NAV_LOITER_TIME,
+        mav.MAV_CMD_NAV_LOITER_UNLIM,
+        mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+        mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+        mav.MAV_CMD_NAV_RALLY_POINT,
+    }
+)
+
+
+def px4_frames(items: list[MissionItem]) -> list[MissionItem]:
+    """``items`` as PX4 takes them: an item without a position (NAV_RETURN_TO_LAUNCH,
+    DO_CHANGE_SPEED, …) in MAV_FRAME_MISSION. PX4's MavlinkMissionManager
+    (src/modules/mavlink/mavlink_mission.cpp, parse_mavlink_mission_item) reads those commands
+    only in that frame and refuses them in a global one (MAV_MISSION_UNSUPPORTED; measured on
+    SITL b765769f50: "IGN MISSION_ITEM: Invalid item" for an RTL in the relative frame)."""
+    return [
+        item if item.command in _POSITIONED else replace(item, frame=mav.MAV_FRAME_MISSION)
+        for item in items
+    ]
+
+
+# -- which mission steps an autopilot flies on board ---------------------------------------------
+#: The mission steps (by command name, messaging/commands.py) that have an on-board form
+#: (drone/onboard.py): ``arm`` (from the companion computer, before any flying step),
+#: ``takeoff`` NAV_TAKEOFF, ``navigate`` NAV_WAYPOINT, ``wait_for_flight`` (the NAV item before
+#: it reached), ``sleep`` NAV_LOITER_TIME, ``takepic`` DO_DIGICAM_CONTROL, ``camera_trigger``
+#: DO_SET_CAM_TRIGG_DIST, ``land`` NAV_LAND, ``rtl`` NAV_RETURN_TO_LAUNCH; a mission that ends
+#: in the air ends with NAV_LOITER_UNLIM. Shared by the drone and the planner, which refuses a
+#: mission asked on board that has another step.
+ONBOARD_STEPS = frozenset(
+    {
+        "arm",
+        "takeoff",
+        "navigate",
+        "wait_for_flight",
+        "sleep",
+        "takepic",
+        "camera_trigger",
+        "land",
+        "rtl",
+    }
+)
+
+
+def onboard_refusal(commands: list[str]) -> tuple[int, str] | None:
+    """The first step of ``commands`` that cannot be flown on board and why (its index, a
+    sentence), or None when all can."""
+    flying = False
+    for i, command in enumerate(commands):
+        if command not in ONBOARD_STEPS:
+            return i, f"{command} has no on-board (MAVLink mission item) form"
+        if command == "arm" and flying:
+            return i, "arm between flying steps is left to the companion computer"
+        flying = flying or command != "arm"
+    return None
 
 
 def take_photo() -> MissionItem:

@@ -9,7 +9,9 @@ step; today ArduPilot and PX4 are the two that matter):
   (AUTO = 4 with sub modes TAKEOFF 2, LOITER 3, MISSION 4, RTL 5, LAND 6; OFFBOARD = 6).
   PX4's GUIDED equivalent, OFFBOARD, needs a setpoint stream at > 2 Hz, so the backend flies
   single targets in AUTO.LOITER with MAV_CMD_DO_REPOSITION and takes off with NAV_TAKEOFF in
-  AUTO.TAKEOFF (altitude AMSL) instead — see :mod:`.controller`.
+  AUTO.TAKEOFF (altitude AMSL) instead — see drone/fc/mavlink/guided.py. So AUTO.LOITER is both our
+  GUIDED and a HOLD: :func:`decode_mode` says HOLD, and the controller says GUIDED for the
+  AUTO.LOITER it commanded itself (drone/fc/mavlink/mode_watch.py, ``_on_mode``).
 
 Everything above the backend sees only :class:`~dronefleet.vehicle.base.FlightMode`.
 """

@@ -4,8 +4,10 @@ The :class:`~dronefleet.sim.vehicle.SimVehicle` knows targets, arming and landin
 what an ArduPilot Copter does on top (the autopilot of the seed's Flight Controller, now over
 MAVLink, seed 6.2.4): mode numbers and which commands each mode accepts (takeoff only in GUIDED
 and armed, position targets only in GUIDED, no arming in AUTO/RTL/LAND), RTL (climb to RTL_ALT,
-fly home, land), BRAKE/LOITER holds, the battery failsafe's switch to LAND, and AUTO, which flies
-the mission on board (:mod:`.auto`) whether or not anyone is listening. Refusals raise
+fly home, land), BRAKE/LOITER holds, the battery failsafe's switch to LAND, the GCS failsafe
+(:meth:`SimCopter.gcs_failsafe_check`, as ``ArduCopter/events.cpp`` does it: FS_GCS_ENABLE,
+FS_GCS_TIMEOUT, FS_OPTIONS), and AUTO, which flies the mission on board (:mod:`.auto`) whether or
+not anyone is listening. Refusals raise
 :class:`CommandRefused` with the text the endpoint sends as STATUSTEXT before the COMMAND_ACK.
 
 What ArduPilot does that a forgiving simulator would not (issue 17; ArduPilot upstream 64a9c78):
@@ -103,6 +105,9 @@ class SimCopter:
         self._failsafe_noted = False
         self._was_rebooting = False
         self.picture_count = 0
+        #: Vehicle time of the last HEARTBEAT from the ground station SYSID_MYGCS (None: never).
+        self.gcs_last_seen_s: float | None = None
+        self.gcs_failsafe = False  # in GCS failsafe now
         self.auto_armed = False  # AUTO may fly its mission (MISSION_START, or AUTO in the air)
         self.landing = Landing(self)
         #: The last pre-arm checks' result (ArduPilot runs them while disarmed, at 1 Hz).
@@ -227,6 +232,7 @@ class SimCopter:
             raise CommandRefused("Reboot: vehicle is armed; disarm first")
         self._leave_mode()
         self.mode = CopterMode.STABILIZE
+        self.gcs_last_seen_s, self.gcs_failsafe = None, False  # a new boot has heard nobody
         v.reboot(force=True)
 
     def take_picture(self) -> dict[str, Any] | None:
@@ -280,6 +286,7 @@ class SimCopter:
             if v.landing and self.mode is not CopterMode.LAND:
                 self._leave_mode()
                 self.mode = CopterMode.LAND
+        self.gcs_failsafe_check()
         if self._rtl_phase is not None and self.mode in (CopterMode.RTL, CopterMode.SMART_RTL):
             self._rtl_step()
         elif self.mode is CopterMode.AUTO:
@@ -291,6 +298,53 @@ class SimCopter:
         if self.camera is not None and v.armed:
             self.trigger.update(v.position_ned)
         self.landing.update()
+
+    # -- the GCS failsafe (ArduCopter/events.cpp) ---------------------------------------------
+    def gcs_heard(self) -> None:
+        """A HEARTBEAT from our ground station (SYSID_MYGCS) arrived."""
+        self.gcs_last_seen_s = self.vehicle.time_s
+
+    def gcs_failsafe_check(self) -> None:
+        """``Copter::failsafe_gcs_check``: off when FS_GCS_ENABLE is 0 or no ground station was
+        ever heard; on after FS_GCS_TIMEOUT vehicle seconds without one (once per outage),
+        cleared when it is heard again (the mode it chose stays)."""
+        if not self.params.get("FS_GCS_ENABLE") or self.gcs_last_seen_s is None:
+            return
+        silent_s = self.vehicle.time_s - self.gcs_last_seen_s
+        timeout_s = max(0.0, float(self.params.get("FS_GCS_TIMEOUT")))
+        if silent_s < timeout_s and self.gcs_failsafe:
+            self.gcs_failsafe = False
+            self.events.statustext(mav.MAV_SEVERITY_WARNING, "GCS Failsafe Cleared")
+        elif silent_s > timeout_s and not self.gcs_failsafe:
+            self.gcs_failsafe = True
+            self._gcs_failsafe_on()
+
+    def _gcs_failsafe_on(self) -> None:
+        """``Copter::failsafe_gcs_on_event``: FS_GCS_ENABLE's action, unless disarmed (only
+        said), landed (disarm), landing for the battery failsafe or with FS_OPTIONS bit 3
+        (landing goes on), or in AUTO with FS_OPTIONS bit 1 (the mission goes on)."""
+        v, options = self.vehicle, int(self.params.get("FS_OPTIONS"))
+        enable = int(self.params.get("FS_GCS_ENABLE"))
+        landing = self.mode is CopterMode.LAND or v.landing or self._rtl_phase == "land"
+        say = "GCS Failsafe"
+        action: CopterMode | None = {
+            5: CopterMode.LAND, 7: CopterMode.LAND, 3: CopterMode.SMART_RTL,
+            4: CopterMode.SMART_RTL,
+        }.get(enable, CopterMode.RTL)  # fmt: skip
+        if not v.armed:
+            action = None
+        elif not v.in_air:
+            say, action = "GCS Failsafe - Disarming", None
+            self.disarm(force=True)
+        elif landing and v.battery_failsafe:
+            say, action = "GCS + Battery Failsafe - Continuing Landing", None
+        elif landing and options & 8:
+            say, action = "GCS Failsafe - Continuing Landing", None
+        elif self.mode is CopterMode.AUTO and options & 2:
+            say, action = "GCS Failsafe - Continuing Auto Mode", None
+        self.events.statustext(mav.MAV_SEVERITY_WARNING, say)
+        if action is not None and action is not self.mode:
+            self.set_mode(action)
 
     def landed_and_disarmed(self) -> None:
         """Disarmed on the ground by the land detector or DISARM_DELAY (:mod:`.landing`)."""

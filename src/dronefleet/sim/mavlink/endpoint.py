@@ -116,6 +116,11 @@ class VehicleEndpoint(asyncio.DatagramProtocol, CopterEvents):
         if target not in (0, self.system_id):
             return
         kind = msg.get_type()
+        if kind == "HEARTBEAT":
+            mygcs = int(self.copter.params.get("SYSID_MYGCS"))
+            if msg.type == mav.MAV_TYPE_GCS and msg.get_srcSystem() == mygcs:
+                self.copter.gcs_heard()  # its GCS failsafe's clock (SimCopter)
+            return
         if kind in ("COMMAND_LONG", "COMMAND_INT"):
             result, reason = self.commands.command(msg)
             self._answer(msg.command, result, reason, msg)

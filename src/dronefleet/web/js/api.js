@@ -1,7 +1,7 @@
 // The REST API and the live stream. The page never keeps the API token (issue 12): it is
 // exchanged once for an HttpOnly session cookie (POST /api/v1/session) that script cannot read.
 // Raw telemetry is left out of the shared stream (it is the bulk of it); charts query it.
-const KINDS = "heartbeat,progress,alarm,fleet,mission";
+const KINDS = "heartbeat,progress,alarm,fleet,mission,command";
 // A request that hangs becomes an error the page shows; longer than a command's own 30 s limit.
 const REQUEST_TIMEOUT_MS = 40000;
 // What earlier versions kept in localStorage; removed on sight.

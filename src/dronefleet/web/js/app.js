@@ -1,7 +1,10 @@
 // The web app's shell: sign-in, the page router (#/fleet, #/control, ...), the live stream.
 import { api, signIn as openSession, signOut, Stream, takeLegacyToken } from "./api.js";
+import { installAlarmCentre } from "./alarms.js";
 import { announce, installAlerts } from "./alerts.js";
 import { Fleet } from "./fleet.js";
+import { onStreamMessage as onCommandMessage } from "./flight-commands.js";
+import { watchHealth } from "./health.js";
 import { toast } from "./ui.js";
 
 const PAGES = {
@@ -17,6 +20,7 @@ const PAGES = {
 const ctx = { fleet: new Fleet(), me: null, listeners: new Set() };
 let current = null;
 let stream = null;
+let alarmCentre = null;
 
 /** Pages subscribe to raw stream messages with ctx.onStream(fn) → unsubscribe(). */
 ctx.onStream = (fn) => {
@@ -27,6 +31,8 @@ ctx.onStream = (fn) => {
 function onMessage(msg) {
   ctx.fleet.onStream(msg);
   announce(msg); // alarms: a toast, and a beep for CRITICAL ones and lost drones (alerts.js)
+  if (alarmCentre) alarmCentre.onStream(msg); // the bell's count and the alarm list (alarms.js)
+  onCommandMessage(msg); // a move's end, reported by the drone (flight-commands.js)
   for (const fn of ctx.listeners) fn(msg);
 }
 
@@ -138,7 +144,13 @@ function boot() {
   if (stream) return;
   ctx.fleet.addEventListener("unauthorized", () => askToken("Signed out: sign in again."));
   ctx.fleet.start();
+  alarmCentre = installAlarmCentre(ctx, {
+    bell: document.getElementById("alarms-bell"),
+    count: document.getElementById("alarm-count"),
+    panel: document.getElementById("alarm-centre"),
+  });
   stream = new Stream(onMessage, setLink);
+  watchHealth(document.getElementById("health")); // a banner while the ground is degraded
   window.addEventListener("hashchange", route);
   route();
 }

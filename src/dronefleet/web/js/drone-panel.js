@@ -1,10 +1,14 @@
 // The per-drone panel (issue 14): everything an operator reads about one drone, and the four
 // buttons that act on it alone (Pause, Resume, Abort, RTL), on every page that shows drones.
+// Flight control (issue 29): a flight-mode selector and Hold and Land buttons, with the result in
+// words (web/js/flight-commands.js): "done" only once the drone reports the move ended.
 //
 // Figures come from the drone's heartbeats (via ctx.fleet): mode, height above home, ground
 // speed, battery, GPS, link, and what follows from them (distance home, flight time left).
+import { levelWord } from "./alarms.js";
 import { api } from "./api.js";
 import { missionOfLeg, downloadMissionLog } from "./download.js";
+import { describe, MODE_LABELS, MODES, runCommand } from "./flight-commands.js";
 import { distanceM, el, fmtAgo, fmtDuration, toast } from "./ui.js";
 
 /** Battery levels: a colour and a word (never colour alone). */
@@ -65,8 +69,18 @@ export function dronePanel(ctx, { idPrefix = "drone-panel", onAction = () => {} 
     rtl: button("rtl", "RTL", { class: "command danger", title: "Return to launch and land" }),
   };
   const log = el("button", { type: "button", id: `${idPrefix}-log`, class: "small", hidden: true, onclick: () => saveLog() }, "Mission log");
+  // Flight control: the mode selector, Hold and Land, and what came of the last one.
+  const modeSelect = el("select", { id: `${idPrefix}-mode-select`, "aria-label": "Flight mode to set", disabled: true },
+    el("option", { value: "" }, "Set a flight mode…"), ...MODES.map((mode) => el("option", { value: mode }, MODE_LABELS[mode])));
+  const flight = {
+    mode: el("button", { type: "button", class: "command", id: `${idPrefix}-set-mode`, disabled: true, onclick: () => fly("mode", { value: modeSelect.value }) }, "Set mode"),
+    hold: el("button", { type: "button", class: "command", id: `${idPrefix}-hold`, disabled: true, title: "Stop and hold position (pauses a mission)", onclick: () => fly("mode", { value: "HOLD" }) }, "Hold"),
+    land: el("button", { type: "button", class: "command danger", id: `${idPrefix}-land`, disabled: true, title: "Land where it is (pauses a mission)", onclick: () => fly("land") }, "Land"),
+  };
+  const result = el("p", { class: "command-result", id: `${idPrefix}-result`, "aria-live": "polite" });
   const element = el("section", { class: "drone-panel", id: idPrefix, "aria-labelledby": `${idPrefix}-title` },
-    title, figures, el("div", { class: "buttons" }, ...Object.values(buttons), log), note);
+    title, figures, el("div", { class: "buttons" }, ...Object.values(buttons), log),
+    el("div", { class: "buttons flight" }, modeSelect, flight.mode, flight.hold, flight.land), result, note);
   let chosen = null;
 
   function row(key, label, value, attrs = {}) {
@@ -80,7 +94,7 @@ export function dronePanel(ctx, { idPrefix = "drone-panel", onAction = () => {} 
       title.textContent = chosen ? `${chosen}: not heard yet` : "No drone selected";
       if (can) note.textContent = "Pick a drone: its name in the list, or its arrow on the map.";
       figures.replaceChildren();
-      for (const b of Object.values(buttons)) b.disabled = true;
+      for (const b of [...Object.values(buttons), ...Object.values(flight), modeSelect]) b.disabled = true;
       log.hidden = true;
       return;
     }
@@ -103,12 +117,18 @@ export function dronePanel(ctx, { idPrefix = "drone-panel", onAction = () => {} 
       ...row("time-left", `Flight time left (to ${RESERVE_PCT} %)`, left === null ? "—" : fmtDuration(left)),
       ...row("wind", "Wind", d.wind ? `${d.wind.speed_mps.toFixed(1)} m/s from ${d.wind.from_deg.toFixed(0)}°` : "unknown"),
       ...row("mission", "Mission", mission || "none"),
+      ...row("alarm", "Last alarm", d.alarm ? `${levelWord(d.alarm.level)}: ${d.alarm.message || "(no message)"} (${fmtAgo(Math.max(0, Date.now() / 1000 - d.alarm.at))})` : "none",
+        d.alarm ? { class: d.alarm.level === "CRITICAL" ? "alarm" : "", "data-level": d.alarm.level } : {}),
     );
     const flying = ["flying", "taking_off", "landing"].includes(d.state);
     buttons.pause.disabled = !can || !mission;
     buttons.resume.disabled = !can || !mission;
     buttons.abort.disabled = !can || !mission;
     buttons.rtl.disabled = !can || (!flying && !mission);
+    modeSelect.disabled = !can;
+    flight.mode.disabled = !can || !modeSelect.value;
+    flight.hold.disabled = !can || !flying;
+    flight.land.disabled = !can || !flying;
     log.hidden = !mission;
   }
 
@@ -135,6 +155,23 @@ export function dronePanel(ctx, { idPrefix = "drone-panel", onAction = () => {} 
     }
   }
 
+  modeSelect.addEventListener("change", () => { flight.mode.disabled = !can || !modeSelect.value; });
+
+  /** A flight command from the panel: Land, RTL and LAND ask first; the result in words. */
+  async function fly(command, body) {
+    const id = chosen;
+    if (!id || (command === "mode" && !body.value)) return;
+    const what = describe(command, body);
+    const asks = command === "land" || (command === "mode" && ["LAND", "RTL"].includes(body.value));
+    if (asks && !window.confirm(`${id}: ${what}? It comes down${body && body.value === "RTL" ? " at home" : " where it is"}.`)) return;
+    await runCommand(id, command, body, ({ state, text, answer }) => {
+      if (chosen !== id) return; // another drone is shown now
+      result.textContent = text;
+      Object.assign(result.dataset, { command, state });
+      if (state === "done") onAction(command, answer);
+    });
+  }
+
   async function saveLog() {
     const d = chosen && ctx.fleet.drones.get(chosen);
     const mission = d && missionOfLeg(d.mission_id);
@@ -148,7 +185,11 @@ export function dronePanel(ctx, { idPrefix = "drone-panel", onAction = () => {} 
   render();
   return {
     element,
-    show(id) { chosen = id || null; render(); },
+    show(id) {
+      if ((id || null) !== chosen) { result.textContent = ""; delete result.dataset.state; }
+      chosen = id || null;
+      render();
+    },
     get selected() { return chosen; },
     destroy() { ctx.fleet.removeEventListener("change", onChange); clearInterval(ticker); },
   };

@@ -23,12 +23,28 @@ const GroundTiles = L.GridLayer.extend({
   },
 });
 
+/** What the map says on itself when it has no imagery (issue 29): the grid alone looks like a
+ * fault, and the operator needs the one option that fixes it. */
+export const NO_TILES = "no map tiles: start the ground with --tiles FILE.mbtiles";
+
 /** Add the ground's imagery to `map`; resolves to the view the imagery suggests ({center, zoom})
- * for a local MBTiles file, else null. Without imagery the grid alone stays. */
+ * for a local MBTiles file, else null. Without imagery the grid alone stays, with a note. */
 export async function addImagery(map, config) {
   if (config.local_tiles) return addGroundTiles(map);
   if (config.tiles) addRemoteTiles(map, config.tiles);
+  else noTilesNote(map, NO_TILES);
   return null;
+}
+
+/** A note in the map's corner (a Leaflet control, so it stays put while the map pans). */
+function noTilesNote(map, text) {
+  const note = document.createElement("p");
+  note.className = "map-note";
+  note.id = `${map.getContainer().id || "map"}-no-tiles`;
+  note.setAttribute("role", "note");
+  note.textContent = text;
+  const Note = L.Control.extend({ onAdd: () => note });
+  new Note({ position: "bottomleft" }).addTo(map);
 }
 
 async function addGroundTiles(map) {
@@ -37,6 +53,7 @@ async function addGroundTiles(map) {
     set = await api("/tiles");
   } catch (err) {
     console.warn("no map tiles:", err.message);
+    noTilesNote(map, `no map tiles (${err.message}): start the ground with --tiles FILE.mbtiles`);
     return null;
   }
   const options = { minNativeZoom: set.min_zoom, maxNativeZoom: set.max_zoom, maxZoom: 22, zIndex: 1, className: "ground-tiles" };
@@ -57,7 +74,10 @@ function addRemoteTiles(map, template) {
   layer.on("tileload", () => { loaded += 1; });
   layer.on("tileerror", () => {
     failed += 1;
-    if (failed >= 4 && loaded === 0) map.removeLayer(layer); // offline: keep the grid only
+    if (failed >= 4 && loaded === 0 && map.hasLayer(layer)) { // offline: keep the grid only
+      map.removeLayer(layer);
+      noTilesNote(map, `the tile server does not answer: start the ground with --tiles FILE.mbtiles`);
+    }
   });
   layer.addTo(map);
 }

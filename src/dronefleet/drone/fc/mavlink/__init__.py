@@ -4,7 +4,10 @@ ArduPilot Copter and PX4 over pymavlink, found by ``dronefleet drone --fc mavlin
 Modules: :mod:`.codec` (framing), :mod:`.link` (asyncio link, heartbeat watchdog), :mod:`.clock`
 (the autopilot's time), :mod:`.commands` (COMMAND_LONG/ACK with retries), :mod:`.modes` (ArduPilot
 and PX4 mode encodings), :mod:`.items` and :mod:`.mission` (missions on board), :mod:`.objects`
-(objrequest), :mod:`.payload` (gas sensor and camera), :mod:`.controller` (the FlightController).
+(objrequest), :mod:`.payload` (gas sensor and camera), :mod:`.session` and :mod:`.flight_params`
+(what is asked for and read on connect), :mod:`.state`, :mod:`.mode_watch` and :mod:`.guided` (the
+controller's state getters, mode changes and flying to a point), :mod:`.controller` (the
+FlightController).
 """
 
 from __future__ import annotations

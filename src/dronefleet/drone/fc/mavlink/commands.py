@@ -21,6 +21,14 @@ from dronefleet.vehicle.base import FcError
 _REASON_GRACE_S = 0.15
 
 
+class Refused(FcError):
+    """The autopilot answered a command with a refusal: ``result`` is its MAV_RESULT."""
+
+    def __init__(self, message: str, result: int) -> None:
+        super().__init__(message)
+        self.result = result
+
+
 class CommandSender:
     """Sends commands to the link's autopilot and waits for their acknowledgement."""
 
@@ -102,4 +110,4 @@ class CommandSender:
             await asyncio.sleep(_REASON_GRACE_S)
             reason = self.link.reason_since(sent_at)
         verdict = result_name(ack.result)
-        raise FcError(f"{name} refused ({verdict})" + (f": {reason}" if reason else ""))
+        raise Refused(f"{name} refused ({verdict})" + (f": {reason}" if reason else ""), ack.result)

@@ -9,82 +9,50 @@ altitude above mean sea level (see :mod:`.modes`). Every command waits for its C
 retries and a refusal raises :class:`FcError` with the autopilot's STATUSTEXT reason. State getters
 read the latest messages and never block. The :attr:`clock` is the autopilot's (``time_boot_ms``).
 Whole missions are flown on board through :attr:`mission` (:class:`.mission.MissionClient`).
+
+The controller is built of mixins, one concept each: :class:`.state.VehicleView` (the state
+getters), :class:`.mode_watch.ModeWatch` (mode changes, and the mode seen) and
+:class:`.guided.GuidedFlight` (take-off, targets, hold); what it reads on connect is in
+:mod:`.session` and :mod:`.flight_params`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
-import math
 from typing import Any
 
 from dronefleet.clock import monotonic
 from dronefleet.drone.fc.clock import AutopilotClock
-from dronefleet.drone.fc.mavlink import objects, session
-from dronefleet.drone.fc.mavlink.commands import CommandSender
-from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
+from dronefleet.drone.fc.mavlink import gcs_failsafe, objects, payload, session
+from dronefleet.drone.fc.mavlink.commands import CommandSender, Refused
+from dronefleet.drone.fc.mavlink.flight_params import FLIGHT_PARAMS, flight_figures
+from dronefleet.drone.fc.mavlink.gcs_failsafe import LinkFailsafe
+from dronefleet.drone.fc.mavlink.guided import GuidedFlight
+from dronefleet.drone.fc.mavlink.link import MavlinkLink
 from dronefleet.drone.fc.mavlink.mission import MissionClient
-from dronefleet.drone.fc.mavlink.state import VehicleView, is_armed
+from dronefleet.drone.fc.mavlink.session import DEFAULT_STREAMS_HZ
+from dronefleet.drone.fc.mavlink.state import is_armed
 from dronefleet.geo.types import LLA
 from dronefleet.protocols.mavlink.codec import Message, text_field
 from dronefleet.protocols.mavlink.codec import dialect as mav
-from dronefleet.protocols.mavlink.modes import (
-    Autopilot,
-    custom_mode_for,
-    set_mode_params,
-)
+from dronefleet.protocols.mavlink.modes import Autopilot
 from dronefleet.vehicle.base import FcError, FlightMode
 
 log = logging.getLogger(__name__)
 
-#: Message rates asked for on connect (Hz of vehicle time).
-DEFAULT_STREAMS_HZ = {
-    "GLOBAL_POSITION_INT": 10.0,
-    "ATTITUDE": 10.0,
-    "GPS_RAW_INT": 5.0,
-    "SYS_STATUS": 2.0,
-    "BATTERY_STATUS": 1.0,
-    "EXTENDED_SYS_STATE": 2.0,
-    "SYSTEM_TIME": 1.0,
-    "HOME_POSITION": 0.5,
-    "MISSION_CURRENT": 1.0,
-    # The echo of each GUIDED target, which confirms it (ArduPilot sends it only when asked).
-    "POSITION_TARGET_GLOBAL_INT": 4.0,
-}
-MIN_TARGET_ALT_M = 0.5
-#: Autopilot parameters read on connect, for the planner's estimates and the gear check: key in
-#: Heartbeat.flight, then ArduPilot Copter's names with the factor to SI units. Recent ArduPilot
-#: (the SITL this project tests, upstream 64a9c78) names them in SI units (WP_SPD m/s, WP_ACC
-#: m/s², WP_JERK m/s³, LAND_SPD_MS, LAND_ALT_LOW_M); earlier versions in cm (WPNAV_SPEED cm/s,
-#: WPNAV_ACCEL cm/s², LAND_SPEED, LAND_ALT_LOW cm). The first name the autopilot knows wins.
-FLIGHT_PARAMS: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
-    ("speed_mps", (("WP_SPD", 1.0), ("WPNAV_SPEED", 0.01))),
-    ("accel_mps2", (("WP_ACC", 1.0), ("WPNAV_ACCEL", 0.01))),
-    ("accel_z_mps2", (("WP_ACC_Z", 1.0), ("WPNAV_ACCEL_Z", 0.01))),
-    ("jerk_mps3", (("WP_JERK", 1.0), ("WPNAV_JERK", 1.0))),
-    ("climb_mps", (("WP_SPD_UP", 1.0), ("WPNAV_SPEED_UP", 0.01))),
-    ("descent_mps", (("WP_SPD_DN", 1.0), ("WPNAV_SPEED_DN", 0.01))),
-    ("land_speed_mps", (("LAND_SPD_MS", 1.0), ("LAND_SPEED", 0.01))),
-    ("land_alt_low_m", (("LAND_ALT_LOW_M", 1.0), ("LAND_ALT_LOW", 0.01))),
-    ("capacity_mah", (("BATT_CAPACITY", 1.0),)),
-    ("camera_type", (("CAM1_TYPE", 1.0),)),
-)
 #: ArduPilot's "really" values: disarm in flight, reboot while armed.
 FORCE_DISARM_MAGIC = 21196
 FORCE_REBOOT_MAGIC = 20190226
-_POSITION_ONLY = 0b0000_1101_1111_1000  # SET_POSITION_TARGET type_mask: use lat/lon/alt only
-_IN_AIR_STATES = {
-    mav.MAV_LANDED_STATE_IN_AIR,
-    mav.MAV_LANDED_STATE_TAKEOFF,
-    mav.MAV_LANDED_STATE_LANDING,
-}
+#: A refused ARM is asked again this many times in all, this many vehicle seconds apart.
+ARM_TRIES = 3
+ARM_RETRY_S = 1.0
+#: The refusals asked again: the check failed now (ArduPilot answers FAILED for its arming
+#: checks), or the autopilot says to try later. DENIED and UNSUPPORTED are final.
+_RETRIED = {mav.MAV_RESULT_FAILED, mav.MAV_RESULT_TEMPORARILY_REJECTED}
 
 
-#: How recent (wall seconds) a failsafe STATUSTEXT must be to explain a mode change.
-FAILSAFE_TEXT_S = 3.0
-
-
-class MavlinkFlightController(VehicleView):
+class MavlinkFlightController(GuidedFlight):
     """FlightController for the autopilot at ``url`` (``udpout:HOST:PORT``, ``tcp:…``, a serial
     device)."""
 
@@ -100,6 +68,7 @@ class MavlinkFlightController(VehicleView):
         streams_hz: dict[str, float] | None = None,
         connect_timeout_s: float = 15.0,
         signing_key: bytes | None = None,
+        set_link_failsafe: bool = True,
     ) -> None:
         if telemetry_rate_hz <= 0:
             raise ValueError("telemetry rate must be positive")
@@ -115,8 +84,21 @@ class MavlinkFlightController(VehicleView):
         )
         self.commands = CommandSender(self.link, ack_timeout_s=ack_timeout_s, retries=retries)
         self._clock = AutopilotClock()
+        # Our heartbeats come every second of the autopilot's time, not the wall's (issue 26).
+        self.link.vehicle_rate = lambda: self._clock.speedup
+        #: Whether to turn the autopilot's link-loss failsafe on at connect when it is off.
+        self.set_link_failsafe = set_link_failsafe
+        #: What the autopilot does by itself if this drone's software dies (read at connect).
+        self.link_failsafe: LinkFailsafe | None = None
         self.autopilot = Autopilot.GENERIC
+        # What ModeWatch keeps of the modes we commanded and saw (mode_watch.py).
+        self._expected = None
+        self._loiter_ours = False
+        self._mission_rtl = False
+        self._seen_mode = None
         self.mission = MissionClient(self.link, self.commands, self.autopilot, self._clock)
+        self.mission.on_start = lambda: self._expect(FlightMode.MISSION)
+        self.mission.here = self._here
         self.named_values: dict[str, tuple[float, float]] = {}  # name -> (value, vehicle s)
         self.captures: list[dict[str, Any]] = []
         self.rebooting = False
@@ -157,6 +139,9 @@ class MavlinkFlightController(VehicleView):
             await session.learn_home(self.commands)
             self.params = await session.read_params(self.link, FLIGHT_PARAMS)
             self._capacity_mah = self.params.get("capacity_mah") or 0.0
+            self.link_failsafe = await gcs_failsafe.ensure(
+                self.link, self.autopilot, set_it=self.set_link_failsafe
+            )
         except BaseException:
             await self.link.close()
             raise
@@ -184,21 +169,19 @@ class MavlinkFlightController(VehicleView):
         if stamp is not None:
             self._clock.observe(stamp)
         kind = msg.get_type()
-        if kind == "NAMED_VALUE_FLOAT":
+        if kind == "HEARTBEAT" and msg.type != mav.MAV_TYPE_GCS:
+            self._on_mode(msg.custom_mode)
+        elif kind == "NAMED_VALUE_FLOAT":
             self.named_values[text_field(msg.name)] = (msg.value, self._clock.now())
         elif kind == "CAMERA_IMAGE_CAPTURED":
-            self.captures.append(
-                {
-                    "index": msg.image_index,
-                    "lat": msg.lat / 1e7,
-                    "lon": msg.lon / 1e7,
-                    "alt_m": msg.alt / 1000.0,
-                    "relative_alt_m": msg.relative_alt / 1000.0,
-                    "vehicle_time_s": msg.time_boot_ms / 1000.0,
-                    "file": text_field(msg.file_url) or None,
-                    "ok": msg.capture_result == 1,
-                }
-            )
+            self.captures.append(payload.capture_record(msg))
+
+    def _here(self) -> LLA | None:
+        """Where the vehicle is (home before the first position), None when neither is known."""
+        try:
+            return self.position()
+        except FcError:
+            return None
 
     def _on_link_change(self, ok: bool) -> None:
         if ok and self._connected and not self._closed:
@@ -211,17 +194,6 @@ class MavlinkFlightController(VehicleView):
         task.add_done_callback(self._background.discard)
 
     # -- commands -------------------------------------------------------------------------------
-    async def set_mode(self, mode: FlightMode) -> None:
-        """Switch the autopilot's flight mode and wait until its heartbeat shows it."""
-        self._require_link()
-        want = custom_mode_for(self.autopilot, mode)
-        beat = self.link.latest.get("HEARTBEAT")
-        if beat is not None and beat.custom_mode == want:
-            return
-        p1, p2, p3 = set_mode_params(self.autopilot, mode)
-        await self.commands.long(mav.MAV_CMD_DO_SET_MODE, p1, p2, p3, label=f"mode {mode.value}")
-        await self.link.wait_for("HEARTBEAT", lambda m: m.custom_mode == want, 2.0)
-
     async def arm(self) -> None:
         state = self.state()
         if state.armed:
@@ -231,12 +203,28 @@ class MavlinkFlightController(VehicleView):
         self._arming = True
         asked_at = monotonic()
         try:
-            await self.commands.long(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 0, label="arm")
+            await self._ask_to_arm()
             if not await self._until(lambda: self.state().armed, timeout_s=15.0):
                 reason = self.link.reason_since(asked_at) or self.link.describe()
                 raise FcError(f"{self._name()}: arming was interrupted ({reason})")
         finally:
             self._arming = False
+
+    async def _ask_to_arm(self) -> None:
+        """ARM, asked again while the autopilot refuses it as a pilot would retry, up to
+        :data:`ARM_TRIES` times :data:`ARM_RETRY_S` vehicle seconds apart: some arming checks
+        fail for a moment after boot (ArduPilot's "Arm: Logging not started" on a loaded host,
+        until its log backend has started). A refusal that outlasts the tries is the error,
+        with the autopilot's last reason."""
+        for attempt in range(ARM_TRIES):
+            try:
+                await self.commands.long(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 0, label="arm")
+                return
+            except Refused as exc:
+                if attempt + 1 == ARM_TRIES or exc.result not in _RETRIED:
+                    raise
+                log.info("%s: %s; asking again", self._name(), exc)
+                await self._clock.sleep(ARM_RETRY_S)
 
     async def disarm(self, *, force: bool = False) -> None:
         if not self.state().armed:
@@ -245,87 +233,6 @@ class MavlinkFlightController(VehicleView):
         await self.commands.long(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, magic, label="disarm")
         await self.link.wait_for("HEARTBEAT", lambda m: not is_armed(m), 2.0)
 
-    async def takeoff(self, altitude_m: float) -> None:
-        """Climb to ``altitude_m`` above home; in the air, change altitude where it is."""
-        self._refuse_unless_armed()
-        self._check_altitude(altitude_m)
-        if self.state().in_air:
-            here = self.position()
-            await self.goto(LLA(here.lat, here.lon, self.home().alt_m + altitude_m))
-            return
-        await self._takeoff_command(altitude_m)
-
-    def _recently_took_off(self) -> bool:
-        at = getattr(self, "_takeoff_at", None)
-        return at is not None and self.clock.now() - at < 10.0
-
-    async def _takeoff_command(self, altitude_m: float) -> None:
-        if self.autopilot is Autopilot.PX4:  # PX4: AMSL altitude, switches to AUTO.TAKEOFF itself
-            nan = math.nan
-            amsl = self.home().alt_m + altitude_m
-            await self.commands.long(mav.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, nan, nan, nan, amsl)
-            self._takeoff_at = self.clock.now()
-            return
-        await self.set_mode(FlightMode.GUIDED)
-        await self.commands.long(mav.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, altitude_m)
-        self._takeoff_at = self.clock.now()
-
-    async def goto(self, target: LLA) -> None:
-        home = self.home()
-        if target.alt_m < home.alt_m:
-            raise FcError(
-                f"{self._name()}: target altitude {target.alt_m:.1f} m AMSL is below"
-                f" home ({home.alt_m:.1f} m AMSL)"
-            )
-        self._refuse_unless_armed()
-        relative = target.alt_m - home.alt_m
-        self._check_altitude(relative)
-        lat, lon = round(target.lat * 1e7), round(target.lon * 1e7)
-        if self.autopilot is Autopilot.PX4:
-            flags = mav.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
-            await self.commands.int_(
-                mav.MAV_CMD_DO_REPOSITION,
-                (-1, flags, 0, math.nan),
-                x=lat,
-                y=lon,
-                z=target.alt_m,
-                frame=mav.MAV_FRAME_GLOBAL_INT,
-            )
-            return
-        if not self.state().in_air and not self._recently_took_off():
-            # Copter ignores targets on the ground: take off first. The in-air state lags the
-            # takeoff by a heartbeat, so a refusal because it is already flying is not an error.
-            try:
-                await self._takeoff_command(relative)
-            except FcError as exc:
-                if "already flying" not in str(exc).lower():
-                    raise
-        await self.set_mode(FlightMode.GUIDED)
-        await self._send_target(lat, lon, relative)
-
-    async def _send_target(self, lat: int, lon: int, relative_alt_m: float) -> None:
-        message = mav.MAVLink_set_position_target_global_int_message(
-            0, self.link.target_system, self.link.target_component,
-            mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, _POSITION_ONLY,
-            lat, lon, relative_alt_m, 0, 0, 0, 0, 0, 0, 0, 0,
-        )  # fmt: skip
-        for _ in range(3):  # no ACK for targets: ArduPilot echoes POSITION_TARGET_GLOBAL_INT
-            sent_at = monotonic()
-            try:
-                self.link.send(message)
-            except LinkLost as exc:
-                raise FcError(str(exc)) from exc
-            echo = await self.link.wait_for(
-                "POSITION_TARGET_GLOBAL_INT",
-                lambda m: abs(m.lat_int - lat) <= 1 and abs(m.lon_int - lon) <= 1,
-                0.6,  # wall seconds: the echo streams at 4 Hz of vehicle time
-            )
-            if echo is not None:
-                return
-            reason = self.link.reason_since(sent_at)
-            if reason:
-                raise FcError(f"{self._name()}: position target refused: {reason}")
-
     async def set_param(self, name: str, value: float) -> None:
         """Set an autopilot parameter, confirmed by its echo (the fence's FENCE_* on upload)."""
         self._require_link()
@@ -333,12 +240,7 @@ class MavlinkFlightController(VehicleView):
 
     def flight_params(self) -> dict[str, float]:
         """How this vehicle flies, from its parameters (SI units; for the planner)."""
-        return {k: v for k, v in self.params.items() if k != "camera_type" and v > 0}
-
-    async def hold(self) -> None:
-        if not self.state().in_air:
-            return
-        await self.set_mode(FlightMode.HOLD)
+        return flight_figures(self.params)
 
     async def land(self) -> None:
         if not self.state().in_air:  # already down: just make it safe, like the sim backend
@@ -348,11 +250,6 @@ class MavlinkFlightController(VehicleView):
 
     async def return_to_launch(self) -> None:
         await self.set_mode(FlightMode.RTL)
-
-    def takeover_cause(self) -> str | None:
-        """The autopilot's own reason for a mode change it made (drone/takeover.py): a
-        failsafe it announced in the last :data:`FAILSAFE_TEXT_S` wall seconds."""
-        return self.link.failsafe_since(monotonic() - FAILSAFE_TEXT_S)
 
     async def reboot(self, *, force: bool = False) -> None:
         """Restart the autopilot; returns once it talks again. Refused in the air unless
@@ -387,24 +284,6 @@ class MavlinkFlightController(VehicleView):
         return await objects.request_object(self, name)
 
     # -- helpers --------------------------------------------------------------------------------
-    def _require_link(self) -> None:
-        if not self.link.link_ok:
-            raise FcError(f"{self._name()} is not connected ({self.link.describe()})")
-
-    def _refuse_unless_armed(self) -> None:
-        self._require_link()
-        if not self.state().armed:
-            if self._arming:
-                raise FcError(f"{self._name()}: still arming")
-            raise FcError(f"{self._name()}: not armed; arm it first")
-
-    def _check_altitude(self, altitude_m: float) -> None:
-        if not altitude_m >= MIN_TARGET_ALT_M:
-            raise FcError(
-                f"{self._name()}: target altitude {altitude_m:.1f} m above home is below the"
-                f" {MIN_TARGET_ALT_M} m minimum; use land() to go down"
-            )
-
     async def _until(self, predicate, *, timeout_s: float) -> bool:
         """Wait on the vehicle clock (polling at 20 Hz of vehicle time) for ``predicate``."""
         deadline = self._clock.now() + timeout_s

@@ -5,9 +5,10 @@ pymavlink's ``mavutil.mavlink_connection`` opens UDP, TCP or serial; nothing her
 loop: the connection is opened in a worker thread, and the socket or serial port is read from a
 loop reader callback (``recv_match(blocking=False)`` until drained) as soon as it is readable.
 The link keeps the latest message of every type, fans messages out to listeners, sends a ground
-station HEARTBEAT every second and watches the autopilot's heartbeats: silence for
-``heartbeat_timeout_s`` marks the link lost (commands then fail with that reason); TCP and serial
-links are reopened, UDP links recover by themselves as soon as heartbeats come back.
+station HEARTBEAT every second of the autopilot's clock (:data:`GCS_BEAT_VEHICLE_S`; 4 times a
+wall second at least) and watches the autopilot's heartbeats: silence for ``heartbeat_timeout_s``
+marks the link lost (commands then fail with that reason); TCP and serial links are reopened, UDP
+links recover by themselves as soon as heartbeats come back.
 """
 
 from __future__ import annotations
@@ -34,6 +35,16 @@ GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = mav.MAV_COMP_ID_MISSIONPLANNER
 #: Messages handled per reader callback before yielding to other tasks.
 _MAX_BATCH = 500
+#: Vehicle seconds between our HEARTBEATs (issue 26). The autopilot's GCS failsafe counts its
+#: timeout on its own clock (ArduPilot FS_GCS_TIMEOUT, 5 s by default; PX4 COM_DL_LOSS_T, 10 s;
+#: drone/fc/mavlink/gcs_failsafe.py), so a simulated autopilot running 5 times faster than the
+#: wall clock must hear us every 0.2 wall s: once a wall second it tripped on a live drone.
+GCS_BEAT_VEHICLE_S = 1.0
+#: Wall seconds between our HEARTBEATs, at most and at least (a simulation run very fast). At
+#: most 0.25: until the autopilot's clock has shown its rate (its first stamps) it is taken as
+#: the wall's, and a simulation 5 times faster tripped its failsafe in that first second.
+_MAX_BEAT_WALL_S = 0.25
+_MIN_BEAT_WALL_S = 0.01
 
 
 class LinkLost(Unavailable, RuntimeError):
@@ -76,6 +87,9 @@ class MavlinkLink:
         self._tasks: list[asyncio.Task[None]] = []
         self._closed = False
         self._reopening = False
+        #: The autopilot's vehicle seconds per wall second (its clock's estimate; the
+        #: controller sets it), which paces our heartbeats.
+        self.vehicle_rate: Callable[[], float] = lambda: 1.0
 
     # -- lifecycle ----------------------------------------------------------------------------
     async def open(self) -> None:
@@ -275,7 +289,18 @@ class MavlinkLink:
         while True:
             with contextlib.suppress(LinkLost):
                 self.send(beat)
-            await asyncio.sleep(1.0)
+            await asyncio.sleep(self.beat_period_s())
+
+    def beat_period_s(self) -> float:
+        """Wall seconds to our next HEARTBEAT: :data:`GCS_BEAT_VEHICLE_S` of the autopilot's
+        time, within :data:`_MIN_BEAT_WALL_S` and :data:`_MAX_BEAT_WALL_S`."""
+        try:
+            rate = float(self.vehicle_rate())
+        except Exception:  # a clock that cannot tell: the wall clock's second
+            rate = 1.0
+        if not rate > 0:
+            return _MAX_BEAT_WALL_S
+        return min(_MAX_BEAT_WALL_S, max(_MIN_BEAT_WALL_S, GCS_BEAT_VEHICLE_S / rate))
 
     # -- watchdog -----------------------------------------------------------------------------
     def heartbeat_age_s(self) -> float | None:

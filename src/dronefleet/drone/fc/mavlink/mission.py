@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 
 from dronefleet.drone.fc.mavlink.commands import CommandSender
@@ -24,7 +24,13 @@ from dronefleet.drone.fc.mavlink.link import LinkLost, MavlinkLink
 from dronefleet.geo.types import LLA
 from dronefleet.protocols.mavlink.codec import Message
 from dronefleet.protocols.mavlink.codec import dialect as mav
-from dronefleet.protocols.mavlink.items import ABSOLUTE, MISSION, MissionItem
+from dronefleet.protocols.mavlink.items import (
+    ABSOLUTE,
+    MISSION,
+    MissionItem,
+    placed,
+    px4_frames,
+)
 from dronefleet.protocols.mavlink.modes import Autopilot
 from dronefleet.vehicle.base import FcError
 
@@ -73,6 +79,11 @@ class MissionClient:
         self.photos: dict[str, int] = {"CAMERA_FEEDBACK": 0, "CAMERA_IMAGE_CAPTURED": 0}
         self._queues: list[asyncio.Queue[MissionProgress]] = []
         self._total: int | None = None
+        self.uploaded: list[MissionItem] = []  # the mission as sent, seq by seq
+        #: Called before MISSION_START: the controller expects AUTO (drone/takeover.py).
+        self.on_start: Callable[[], None] | None = None
+        #: The vehicle's position now (the controller's), for items flown where it is.
+        self.here: Callable[[], LLA | None] | None = None
         link.add_listener(self._on_message)
 
     @property
@@ -86,7 +97,7 @@ class MissionClient:
     ) -> None:
         """Replace the vehicle's mission (or fence, or rally points: ``mission_type``) with
         ``items``; returns once the autopilot accepted."""
-        full = list(items)
+        full = self._as_flown(items, home) if mission_type == MISSION else list(items)
         if self.offset and mission_type == MISSION:
             h = home or LLA(0.0, 0.0, 0.0)
             full.insert(
@@ -139,6 +150,27 @@ class MissionClient:
             raise FcError(f"{_KIND.get(mission_type, 'mission')} upload refused: {reason}")
         if mission_type == MISSION:
             self._total = len(full)
+            self.uploaded = full
+
+    def _as_flown(self, items: list[MissionItem], home: LLA | None) -> list[MissionItem]:
+        """The mission's items with the take-off and land placed where the vehicle is
+        (items.placed) and, for PX4, position-less items in MAV_FRAME_MISSION."""
+        here = (self.here() if self.here is not None else None) or home
+        full = list(items) if here is None else placed(list(items), here.lat, here.lon)
+        return px4_frames(full) if self.autopilot is Autopilot.PX4 else full
+
+    def flying_to_rtl(self) -> bool:
+        """Whether the mission flown now goes on to its NAV_RETURN_TO_LAUNCH next: the current
+        item is that item, or the last item with a position before it."""
+        cur = self.current_seq
+        if cur is None or not 0 <= cur < len(self.uploaded):
+            return False
+        for item in self.uploaded[cur:]:
+            if item.command == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+                return True
+            if item.is_nav and item is not self.uploaded[cur]:
+                return False
+        return False
 
     async def download(self, mission_type: int = MISSION) -> list[MissionItem]:
         """The mission (or fence, or rally points) on board, without ArduPilot's home item."""
@@ -181,11 +213,29 @@ class MissionClient:
         Copter denies MISSION_START with a first or last item (GCS_MAVLink_Copter.cpp): the
         first item is made current, then the mission starts there with (0, 0)."""
         await self.set_current(first_index)
+        if self.on_start is not None:
+            self.on_start()
         await self.commands.long(mav.MAV_CMD_MISSION_START, 0, 0)
 
     async def set_current(self, index: int) -> None:
+        """Make item ``index`` current: MAV_CMD_DO_SET_MISSION_CURRENT, or, where the autopilot
+        does not support the command (PX4 at b765769f50 answers UNSUPPORTED), the
+        MISSION_SET_CURRENT message, which asks the vehicle to "emit MISSION_CURRENT (whether or
+        not the mission number changed)" (MAVLink common.xml): that is its answer."""
         seq = index + self.offset
-        await self.commands.long(mav.MAV_CMD_DO_SET_MISSION_CURRENT, seq)
+        if self.autopilot is not Autopilot.PX4:
+            await self.commands.long(mav.MAV_CMD_DO_SET_MISSION_CURRENT, seq)
+            return
+        try:
+            await self.commands.long(mav.MAV_CMD_DO_SET_MISSION_CURRENT, seq)
+            return
+        except FcError as exc:
+            if "UNSUPPORTED" not in str(exc).upper():
+                raise
+        message = mav.MAVLink_mission_set_current_message(
+            self._target(), self.link.target_component, seq
+        )
+        await self._ask(message, "MISSION_CURRENT", lambda m: m.seq == seq)
 
     # -- progress -------------------------------------------------------------------------------
     @property

@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING, Any
 
+from dronefleet.protocols.mavlink.codec import Message, text_field
 from dronefleet.protocols.mavlink.codec import dialect as mav
 from dronefleet.vehicle.base import FcError
 from dronefleet.vehicle.payload import Reading
@@ -91,3 +92,17 @@ class AutopilotCamera:
             "vehicle_time_s": fc.clock.now(),
             "confirmed_by": record.get_type(),
         }
+
+
+def capture_record(msg: Message) -> dict[str, Any]:
+    """A CAMERA_IMAGE_CAPTURED message as the controller keeps it (``captures``)."""
+    return {
+        "index": msg.image_index,
+        "lat": msg.lat / 1e7,
+        "lon": msg.lon / 1e7,
+        "alt_m": msg.alt / 1000.0,
+        "relative_alt_m": msg.relative_alt / 1000.0,
+        "vehicle_time_s": msg.time_boot_ms / 1000.0,
+        "file": text_field(msg.file_url) or None,
+        "ok": msg.capture_result == 1,
+    }

@@ -22,6 +22,24 @@ log = logging.getLogger(__name__)
 
 #: Wall seconds without a further PARAM_VALUE that end a burst of parameter answers.
 _PARAM_QUIET_S = 0.2
+#: Names asked at once: ArduPilot queues 20 PARAM_REQUEST_READs per link and drops the rest
+#: unanswered (GCS_MAVLINK::param_requests), so the flight figures, 40 names, are asked in
+#: batches (WP_SPD, sorted last, went unanswered once the way-home names were added).
+_PARAM_BATCH = 15
+#: Message rates asked for on connect (Hz of vehicle time).
+DEFAULT_STREAMS_HZ = {
+    "GLOBAL_POSITION_INT": 10.0,
+    "ATTITUDE": 10.0,
+    "GPS_RAW_INT": 5.0,
+    "SYS_STATUS": 2.0,
+    "BATTERY_STATUS": 1.0,
+    "EXTENDED_SYS_STATE": 2.0,
+    "SYSTEM_TIME": 1.0,
+    "HOME_POSITION": 0.5,
+    "MISSION_CURRENT": 1.0,
+    # The echo of each GUIDED target, which confirms it (ArduPilot sends it only when asked).
+    "POSITION_TARGET_GLOBAL_INT": 4.0,
+}
 
 
 async def request_streams(commands: CommandSender, streams_hz: dict[str, float]) -> None:
@@ -98,9 +116,9 @@ async def read_params(
     timeout_s: float = 1.0,
 ) -> dict[str, float]:
     """For each ``(key, ((name, factor), ...))``: the first of the names the autopilot answers
-    for, times its factor. Every name is asked at once and the answers are gathered for up to
-    ``timeout_s`` (an autopilot stays silent about a name it does not know, so asking one by
-    one would cost a timeout per unknown name)."""
+    for, times its factor. The names are asked ``_PARAM_BATCH`` at once and each batch's answers
+    gathered for up to ``timeout_s`` (an autopilot stays silent about a name it does not know,
+    so asking one by one would cost a timeout per unknown name)."""
     names = {name for _, candidates in wanted for name, _ in candidates}
     answers: dict[str, float] = {}
     heard = asyncio.Event()
@@ -114,22 +132,10 @@ async def read_params(
 
     remove = link.add_listener(collect)
     try:
-        for name in sorted(names):
-            link.send(
-                mav.MAVLink_param_request_read_message(
-                    link.target_system, link.target_component, name.encode(), -1
-                )
-            )
-        # The answers come as one burst: wait for the first, then until a short quiet gap.
-        wait_s = timeout_s
-        while len(answers) < len(names):
-            heard.clear()
-            try:
-                async with asyncio.timeout(wait_s):
-                    await heard.wait()
-            except TimeoutError:
-                break
-            wait_s = _PARAM_QUIET_S
+        ordered = sorted(names)
+        for start in range(0, len(ordered), _PARAM_BATCH):
+            batch = ordered[start : start + _PARAM_BATCH]
+            await _ask(link, batch, answers, heard, timeout_s)
     finally:
         remove()
     values: dict[str, float] = {}
@@ -139,3 +145,29 @@ async def read_params(
                 values[key] = answers[name] * factor
                 break
     return values
+
+
+async def _ask(
+    link: MavlinkLink,
+    batch: list[str],
+    answers: dict[str, float],
+    heard: asyncio.Event,
+    timeout_s: float,
+) -> None:
+    """Ask for ``batch`` and gather the answers into ``answers``: they come as one burst, so
+    wait for the first (``timeout_s`` at most), then until a short quiet gap."""
+    for name in batch:
+        link.send(
+            mav.MAVLink_param_request_read_message(
+                link.target_system, link.target_component, name.encode(), -1
+            )
+        )
+    wait_s = timeout_s
+    while any(name not in answers for name in batch):
+        heard.clear()
+        try:
+            async with asyncio.timeout(wait_s):
+                await heard.wait()
+        except TimeoutError:
+            break
+        wait_s = _PARAM_QUIET_S

@@ -117,7 +117,7 @@ class VehicleView:
         beat = self.link.latest.get("HEARTBEAT")
         if beat is None:
             return VehicleState(False, self._arming, False, FlightMode.STABILIZE)
-        mode = decode_mode(self.autopilot, beat.custom_mode)
+        mode = self._decode(beat.custom_mode)
         ext = self.link.latest.get("EXTENDED_SYS_STATE")
         if ext is not None and ext.landed_state != mav.MAV_LANDED_STATE_UNDEFINED:
             in_air = ext.landed_state in _IN_AIR_STATES
@@ -127,6 +127,9 @@ class VehicleView:
             landing = in_air and mode is FlightMode.LAND
         armed = is_armed(beat)
         return VehicleState(armed, self._arming and not armed, in_air, mode, landing)
+
+    def _decode(self, custom_mode: int) -> FlightMode:
+        return decode_mode(self.autopilot, custom_mode)
 
     def mode_name(self) -> str:
         beat = self.link.latest.get("HEARTBEAT")

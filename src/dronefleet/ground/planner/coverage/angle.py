@@ -1,4 +1,7 @@
-"""The automatic swath angle: fewest swath segments (turns), then least total swath length.
+"""The automatic swath angle, first keyed quickly: fewest swath segments (turns), then least
+total swath length. The key only shortlists (:meth:`AngleChooser.shortlist`: the best keys, the
+best hull side and the direction across it); the pipeline plans a route for each and flies the
+quickest (:mod:`.pipeline`, :mod:`.cost`), since the key cannot see transits or gaps.
 
 Trying the direction of every convex-hull edge (the optimum for a convex area is parallel to one
 of them) made the search as long as the outline: a traced 2000-vertex circle took a minute. The
@@ -35,6 +38,12 @@ SCORE_TOLERANCE = 0.01
 
 Key = tuple[int, float]
 
+#: Shortlisted angles closer than this (degrees) give nearly the same route: one is enough.
+SAME_DEG = 2.0
+#: Hull sides are kept unless this close (degrees) to an angle already listed: a traced side
+#: comes as several pieces a hair apart.
+SAME_SIDE_DEG = 0.01
+
 
 def simplified(area: Polygon, tolerance_m: float) -> Polygon:
     """``area`` without the detail a swath cannot see (vertices within ``tolerance_m`` of the
@@ -57,6 +66,7 @@ class AngleChooser:
     hull_directions: int = 16
     refine: int = 3  # best angles refined
     levels: int = 5  # halvings of the step around each (15° -> 0.47°)
+    sides_kept: int = 2  # hull sides always in the shortlist
 
     def hull_candidates(self, area: Polygon) -> list[float]:
         """Directions of the hull's sides, longest (summed per direction) first."""
@@ -91,6 +101,39 @@ class AngleChooser:
         return segments, round(length, 3)
 
     def choose(self, area: Polygon, swaths: SwathGenerator) -> float:
+        """The angle of fewest swath segments, then least swath length (the quick key)."""
+        return self._search(area, swaths)[1]
+
+    def shortlist(self, area: Polygon, swaths: SwathGenerator, size: int) -> list[float]:
+        """Up to ``size`` angles worth planning a route for, best quick key first.
+
+        The quick key counts turns and swath length but not what the route adds: transits round
+        a pond, spurs into the corners a slightly turned swath misses. A 400 x 12 m strip keyed
+        best at 0.96° off its sides (the same two swaths, a little shorter) and then needed spurs
+        at both ends: 1059 m instead of 811 m. So the list holds the best hull side too and the
+        direction across it (a five-pointed star's tip-up axis: 610 m where its sides gave 639),
+        and the pipeline picks among them by the routes' flying time (:mod:`.cost`)."""
+        scored, best = self._search(area, swaths)
+        ranked = sorted(scored, key=lambda a: scored[a])
+        hull = set(self.hull_candidates(area))
+        sides = [a for a in ranked if a in hull]
+        picks: list[float] = [best]
+        # A side 1° from the best key may be the better route (the strip); across the best side
+        # lies a star's axis of symmetry, and a rectangle's other side.
+        across = [round((sides[0] + 90.0) % 180.0, 6)] if sides else []
+        for angle in [*sides[:1], *across, *sides[1 : self.sides_kept]]:
+            if len(picks) >= size:
+                break
+            if all(_apart(angle, p) > SAME_SIDE_DEG for p in picks):
+                picks.append(angle)
+        for angle in ranked:
+            if len(picks) >= size:
+                break
+            if all(_apart(angle, p) > SAME_DEG for p in picks):
+                picks.append(angle)
+        return picks
+
+    def _search(self, area: Polygon, swaths: SwathGenerator) -> tuple[dict[float, Key], float]:
         edges = edges_of(simplified(area, SCORE_TOLERANCE * swaths.spacing_m))
         scored: dict[float, Key] = {}
 
@@ -113,4 +156,10 @@ class AngleChooser:
                 delta /= 2.0
             if key(here) < key(best_angle):
                 best_angle = here
-        return best_angle
+        return scored, best_angle
+
+
+def _apart(a: float, b: float) -> float:
+    """Degrees between two swath directions (modulo 180)."""
+    d = abs(a - b) % 180.0
+    return min(d, 180.0 - d)

@@ -21,10 +21,9 @@ from shapely.geometry import Polygon
 
 from dronefleet.geo.ned import LocalFrame
 from dronefleet.geo.types import LLA, NED
-from dronefleet.ground.planner.coverage.angle import AngleChooser
+from dronefleet.ground.planner.coverage.pipeline import plan_area
 from dronefleet.ground.planner.coverage.project import LocalProjection
 from dronefleet.ground.planner.coverage.spec import Action, AreaSpec, Grid, LatLon
-from dronefleet.ground.planner.coverage.swaths import SwathGenerator
 
 
 def collaboration_factor(joining_drones: int) -> float:
@@ -55,7 +54,7 @@ def rebuild(spec: AreaSpec, new_center: LLA, area_factor: float) -> AreaSpec:
 
     angle = spec.angle_deg
     if angle is None:  # freeze the orientation the original was flown at
-        angle = AngleChooser().choose(area, SwathGenerator(spec.line_spacing_m, spec.grid))
+        angle = plan_area(spec).angle_deg
     update = {"polygon": move(spec.polygon), "holes": [move(h) for h in spec.holes]}
     return _updated(spec, {**update, "angle_deg": angle})
 

@@ -41,9 +41,16 @@ class CoveragePlan:
     swaths: list[LineString]  # flown passes, in route order, local plane
     points: list[RoutePoint]  # route points, local plane
     waypoints: list[LLA]
-    uncovered_m2: float = 0.0
+    uncovered_m2: float = 0.0  # area farther than half a spacing from the path
     cells: int = 1
     extras: dict[str, Any] = field(default_factory=dict)
+    uncovered: list[Polygon] = field(default_factory=list)  # those pieces, local plane
+    uncovered_rings: list[list[tuple[float, float]]] = field(default_factory=list)  # [lat, lon]
+
+    @property
+    def coverage_pct(self) -> float:
+        """Share of the area within half a spacing of the path (100 less what is left)."""
+        return 100.0 * (1.0 - self.uncovered_m2 / self.area_m2) if self.area_m2 > 0 else 100.0
 
     @property
     def altitude_m(self) -> float:
@@ -91,22 +98,16 @@ class CoveragePlan:
     def unit_steps(self, index: int, *, altitude_offset_m: float = 0.0) -> list[dict[str, Any]]:
         """The steps of waypoint ``index``: its ``navigate`` and what follows it."""
         p, wp = self.points[index], self.waypoints[index]
-        nav = {
-            "command": "navigate",
-            "lat": wp.lat,
-            "lon": wp.lon,
-            "altitude_delta": round(self.spec.altitude_m + altitude_offset_m, 3),
-        }
-        wait: dict[str, Any] = {"command": "wait_for_flight"}
-        if p.kind is Kind.SWATH_START:
-            wait["horizontal_tolerance_m"] = END_TOLERANCE_M
-            return [nav, wait, {"command": "camera_trigger", "value": round(p.trigger_m, 4)}]
-        if p.kind is Kind.SWATH_END:
-            wait["horizontal_tolerance_m"] = END_TOLERANCE_M
-            return [nav, wait, {"command": "camera_trigger", "value": 0}]
-        if p.kind is Kind.WORK:
-            return [nav, wait, *self._action()]
-        return [nav, wait]
+        altitude = round(self.spec.altitude_m + altitude_offset_m, 3)
+        nav = {"command": "navigate", "lat": wp.lat, "lon": wp.lon, "altitude_delta": altitude}
+        kind = p.kind
+        if kind is Kind.WORK:
+            return [nav, {"command": "wait_for_flight"}, *self._action()]
+        if kind is Kind.TRANSIT:
+            return [nav, {"command": "wait_for_flight"}]
+        wait = {"command": "wait_for_flight", "horizontal_tolerance_m": END_TOLERANCE_M}
+        trigger = round(p.trigger_m, 4) if kind is Kind.SWATH_START else 0
+        return [nav, wait, {"command": "camera_trigger", "value": trigger}]
 
     def mission_steps(
         self, indices: list[int] | range | None = None, *, altitude_offset_m: float = 0.0
@@ -134,4 +135,7 @@ class CoveragePlan:
             "swaths": len(self.swaths),
             "cells": self.cells,
             "uncovered_m2": round(self.uncovered_m2, 3),
+            "coverage_pct": round(self.coverage_pct, 3),
+            "coverage_target_pct": self.spec.coverage_target_pct,
+            "uncovered": [[[round(a, 7), round(b, 7)] for a, b in r] for r in self.uncovered_rings],
         }

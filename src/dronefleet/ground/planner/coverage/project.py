@@ -59,8 +59,12 @@ class LocalProjection:
         return [self.to_xy(lat, lon) for lat, lon in ring]
 
     def area(self, spec: AreaSpec) -> Polygon:
-        """The area in the plane; a self-intersecting polygon is refused with the reason."""
-        poly = Polygon(self.ring_xy(spec.polygon), [self.ring_xy(h) for h in spec.holes])
+        """The area in the plane; a self-intersecting polygon, a hole outside it or holes that
+        overlap are refused with the reason, in one sentence."""
+        outer = Polygon(self.ring_xy(spec.polygon))
+        holes = [Polygon(self.ring_xy(h)) for h in spec.holes]
+        _check_rings(outer, holes)
+        poly = Polygon(outer.exterior.coords, [h.exterior.coords for h in holes])
         if not poly.is_valid:
             fixed = make_valid(poly)
             if fixed.geom_type != "Polygon" or abs(fixed.area - poly.area) > 1e-6 * poly.area:
@@ -72,3 +76,21 @@ class LocalProjection:
         if poly.area <= 0:
             raise ValueError("the area polygon has no area")
         return poly
+
+
+def _check_rings(outer: Polygon, holes: list[Polygon]) -> None:
+    """Refuse, naming it, a ring whose edges cross, a hole not inside the polygon, or two holes
+    that overlap (shapely would only say "invalid")."""
+    if not outer.is_valid or outer.area <= 0:
+        raise ValueError(
+            "the area polygon is not simple (its edges cross, or it has no area); redraw it"
+        )
+    inside = outer.buffer(1e-6)
+    for i, hole in enumerate(holes):
+        if not hole.is_valid or hole.area <= 0:
+            raise ValueError(f"hole {i} is not simple (its edges cross) or has no area; redraw it")
+        if not inside.covers(hole):
+            raise ValueError(f"hole {i} is not inside the area (a hole leaves it); redraw it")
+        for j in range(i):
+            if hole.intersection(holes[j]).area > 1e-9 * hole.area:
+                raise ValueError(f"holes {j} and {i} overlap; draw them as one hole")

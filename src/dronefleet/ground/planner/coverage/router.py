@@ -26,7 +26,7 @@ from shapely.geometry.polygon import orient
 XY = tuple[float, float]
 
 
-def _reflex_corners(area: Polygon) -> list[XY]:
+def reflex_corners(area: Polygon) -> list[XY]:
     area = orient(area, sign=1.0)  # exterior counter-clockwise, holes clockwise
     corners: list[XY] = []
     for ring, is_hole in [(area.exterior, False)] + [(r, True) for r in area.interiors]:
@@ -39,6 +39,9 @@ def _reflex_corners(area: Polygon) -> list[XY]:
             if (x - ax) * (by - y) - (y - ay) * (bx - x) < 0:  # right turn: reflex
                 corners.append((x, y))
     return corners
+
+
+_reflex_corners = reflex_corners  # the name tests/unit/planner/test_planner_bounds.py imports
 
 
 class InAreaRouter:
@@ -60,7 +63,7 @@ class InAreaRouter:
 
     def _corners(self) -> np.ndarray:
         if self._nodes is None:
-            self._nodes = np.asarray(_reflex_corners(self.area), dtype=float).reshape(-1, 2)
+            self._nodes = np.asarray(reflex_corners(self.area), dtype=float).reshape(-1, 2)
             m = len(self._nodes)
             self._seen = np.full((m, m), -1, dtype=np.int8)
         return self._nodes

@@ -26,6 +26,8 @@ from dronefleet.messaging.commands import MAX_ALTITUDE_M
 LatLon = tuple[float, float]
 #: Most vertices a ring may have (transits route over the corners: cost grows as their square).
 MAX_VERTICES = 2000
+#: The lowest coverage target an operator may set (percent of the area).
+MIN_TARGET_PCT = 50.0
 
 
 class Action(StrEnum):
@@ -108,6 +110,23 @@ class AreaSpec(BaseModel):
     fly_through: bool = Field(default=False, description="photograph without stopping")
     grid: Grid = Grid.INSET
     trigger_distance_m: float | None = Field(default=None, gt=0, le=1000)
+    coverage_target_pct: float = Field(
+        default=100.0,
+        description="share of the area to cover (50-100); below 100 slivers narrower than a"
+        " spacing may be left, up to the rest",
+        # Published as the schema's bounds; checked by _target, whose refusal says what it is.
+        json_schema_extra={"minimum": MIN_TARGET_PCT, "maximum": 100.0},
+    )
+
+    @field_validator("coverage_target_pct")
+    @classmethod
+    def _target(cls, value: float) -> float:
+        if not MIN_TARGET_PCT <= value <= 100.0:
+            raise ValueError(
+                f"coverage_target_pct must be between {MIN_TARGET_PCT:g} and 100 (percent of"
+                f" the area to cover), got {value:g}"
+            )
+        return float(value)
 
     @field_validator("polygon")
     @classmethod

@@ -57,12 +57,15 @@ class SwathGenerator:
 
     spacing_m: float
     grid: Grid = Grid.INSET
+    #: Lines fewer than the area needs (footprint grid only): the outer strips, each narrower
+    #: than half a spacing, are left uncovered; a coverage target below 100 % may allow it.
+    fewer: int = 0
 
     def offsets(self, ymin: float, ymax: float) -> list[float]:
         width, s = ymax - ymin, self.spacing_m
         if self.grid == Grid.INSET:
             # Centred, so that both outer lines are at most half a spacing from the edge.
-            n = max(1, math.ceil((width - slack_m(s)) / s))
+            n = max(1, math.ceil((width - slack_m(s)) / s) - self.fewer)
             first = ymin + (width - (n - 1) * s) / 2.0
             return [first + k * s for k in range(n)]
         eps = min(EDGE_EPS_M, width / 4.0)

@@ -1,40 +1,59 @@
-// Control: the seed's commands for one drone as buttons; destructive ones ask first.
-import { api } from "../api.js";
+// Control: the seed's commands for one drone as buttons; destructive ones ask first. Moves go
+// any way (north, south, east, west, up, down) by a distance; the mode selector, Hold and Land
+// are in the drone's panel. Every result is said in words with units and frames, and "done"
+// only once the drone reports the move ended (web/js/flight-commands.js, issue 29).
 import { dronePanel } from "../drone-panel.js";
+import { describe, runCommand } from "../flight-commands.js";
 import { droneIcon, latLngOf, makeMap } from "../map.js";
+import { fleetColor, fleetOverlay } from "../map-fleet.js";
 import { el, field, toast } from "../ui.js";
 
 const L = window.L;
 
 const COMMANDS = [
   { command: "arm", label: "Arm" },
-  { command: "disarm", label: "Disarm", confirm: true },
   { command: "takeoff", label: "Take off", value: "altitude" },
-  { command: "land", label: "Land", confirm: true },
-  { command: "changeN", label: "Move north", value: "step" },
-  { command: "changeE", label: "Move east", value: "step" },
-  { command: "altitude", label: "Move up", value: "step" },
+  { command: "disarm", label: "Disarm", confirm: true },
   { command: "takepic", label: "Take picture" },
   { command: "resetfc", label: "Reset", confirm: true },
 ];
+// The move pad: a command and the sign of the distance (south is a negative changeN).
+const MOVES = [
+  { command: "changeN", sign: 1, label: "North", key: "north" },
+  { command: "changeE", sign: -1, label: "West", key: "west" },
+  { command: "changeE", sign: 1, label: "East", key: "east" },
+  { command: "changeN", sign: -1, label: "South", key: "south" },
+  { command: "altitude", sign: 1, label: "Up", key: "up" },
+  { command: "altitude", sign: -1, label: "Down", key: "down" },
+];
+const FORCEABLE = new Set(["takeoff", "navigate", "changeN", "changeE", "altitude"]);
 
 export async function mount(root, ctx) {
+  const can = ctx.me.can_command;
   const select = el("select", { id: "control-drone" });
   const altitude = el("input", { type: "number", id: "control-altitude", value: "10", min: "1", max: "120", step: "1" });
-  const step = el("input", { type: "number", id: "control-step", value: "5", min: "-50", max: "50", step: "1" });
-  const result = el("pre", { class: "result", id: "control-result", "aria-live": "polite" });
-  const force = el("input", { type: "checkbox", id: "control-force", disabled: !ctx.me.can_command });
+  const step = el("input", { type: "number", id: "control-step", value: "5", min: "1", max: "50", step: "1" });
+  const result = el("p", { class: "command-result", id: "control-result", "aria-live": "polite" });
+  const force = el("input", { type: "checkbox", id: "control-force", disabled: !can });
+  const forceMoves = el("input", { type: "checkbox", id: "control-force-moves", disabled: !can });
   const buttons = COMMANDS.map((c) => el("button", {
     type: "button", class: `command${c.confirm ? " danger" : ""}`, "data-command": c.command,
-    disabled: !ctx.me.can_command, onclick: () => send(c),
+    disabled: !can, onclick: () => send(c),
   }, c.label));
-  const goto = el("p", { class: "hint" }, ctx.me.can_command ? "Click the map to send the drone there (at the altitude above)." : "Viewer token: commands are disabled.");
+  const pad = MOVES.map((mv) => el("button", {
+    type: "button", class: `command move move-${mv.key}`, "data-command": mv.command, "data-move": mv.key,
+    disabled: !can, title: `${mv.label} by the distance above`, onclick: () => move(mv),
+  }, mv.label));
+  const goto = el("p", { class: "hint" }, can ? "Click the map to send the drone there (at the take-off height above home)." : "Viewer token: commands are disabled.");
   const mapBox = el("div", { class: "map", id: "control-map" });
   const panel = dronePanel(ctx, { idPrefix: "control-panel" });
   select.addEventListener("change", () => panel.show(select.value));
   root.append(el("h1", {}, "Control"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
-    field("Drone", select), panel.element, field("Take-off altitude (m)", altitude), field("Move by (m)", step),
+    field("Drone", select), panel.element, field("Take-off height above home (m)", altitude),
     el("div", { class: "buttons" }, ...buttons),
+    field("Move by (m)", step),
+    el("div", { class: "buttons move-pad", role: "group", "aria-label": "Move" }, ...pad),
+    el("label", { class: "check" }, forceMoves, " Force moves while a mission flies it (the mission is paused first)"),
     el("label", { class: "check" }, force, " Force the disarm, even in flight (the motors stop: it falls)"),
     goto, result)));
 
@@ -48,18 +67,13 @@ export async function mount(root, ctx) {
   async function post(command, body) {
     const id = select.value;
     if (!id) return toast("no drone selected", "error");
-    result.textContent = `${command} → ${id}…`;
-    Object.assign(result.dataset, { command, state: "sending" });
-    try {
-      const answer = await api(`/drones/${encodeURIComponent(id)}/commands/${command}`, { method: "POST", body });
-      result.textContent = JSON.stringify(answer, null, 1);
-      result.dataset.state = "done";
-      toast(`${id}: ${command} done`);
-    } catch (err) {
-      result.textContent = `${command} failed: ${err.message}`;
-      result.dataset.state = "failed";
-      toast(`${id}: ${command} failed: ${err.message}`, "error");
-    }
+    const sent = FORCEABLE.has(command) && forceMoves.checked ? { ...(body || {}), force: true } : body;
+    await runCommand(id, command, sent, ({ state, text }) => {
+      result.textContent = text;
+      Object.assign(result.dataset, { command, state });
+      if (state === "done") toast(text);
+      if (state === "failed" || state === "refused") toast(text, "error");
+    });
   }
 
   function send(c) {
@@ -71,21 +85,27 @@ export async function mount(root, ctx) {
     let body;
     if (forced) body = { force: true };
     if (c.value === "altitude") body = { value: Number(altitude.value) };
-    if (c.value === "step") body = { value: Number(step.value) };
     post(c.command, body);
+  }
+
+  function move(mv) {
+    const distance = Math.abs(Number(step.value));
+    if (!Number.isFinite(distance) || distance <= 0) return toast("Move by: a distance in metres, above 0", "error");
+    post(mv.command, { value: mv.sign * distance });
   }
 
   const map = await makeMap(mapBox, { search: true });
   const markers = new Map();
+  const overlay = fleetOverlay(map, ctx.fleet); // homes, targets, tracks (issue 29)
   // A click on the map sends the drone there: asked first, with how far it is (issue 14).
   map.on("click", (e) => {
     if (!ctx.me.can_command || !select.value) return;
     const drone = ctx.fleet.list().find((d) => d.drone_id === select.value);
     const from = drone && latLngOf(drone.position);
     const away = from ? ` (${Math.round(map.distance(from, e.latlng))} m away)` : "";
-    const where = `${e.latlng.lat.toFixed(6)}, ${e.latlng.lng.toFixed(6)}`;
-    if (!window.confirm(`Fly ${select.value} to ${where} at ${Number(altitude.value)} m${away}?`)) return;
-    post("navigate", { lat: e.latlng.lat, lon: e.latlng.lng, altitude_delta: Number(altitude.value) });
+    const body = { lat: e.latlng.lat, lon: e.latlng.lng, altitude_delta: Number(altitude.value) };
+    if (!window.confirm(`${select.value}: ${describe("navigate", body)}${away}?`)) return;
+    post("navigate", body);
   });
   let fitted = false;
   function render() {
@@ -94,9 +114,10 @@ export async function mount(root, ctx) {
       const at = latLngOf(d.position);
       if (!at) continue;
       if (!markers.has(d.drone_id)) markers.set(d.drone_id, L.marker(at, { keyboard: false }).addTo(map));
-      markers.get(d.drone_id).setLatLng(at).setIcon(droneIcon(d));
+      markers.get(d.drone_id).setLatLng(at).setIcon(droneIcon(d, fleetColor(ctx.fleet, d.drone_id)));
       if (!fitted) { map.setView(at, 19); fitted = true; }
     }
+    overlay.update();
   }
   ctx.fleet.addEventListener("change", render);
   render();

@@ -1,9 +1,48 @@
 // Fleet: every drone live on the map (position, heading, trail, colour by state) and in a table.
 import { batteryLevel, dronePanel } from "../drone-panel.js";
+import { api } from "../api.js";
 import { droneIcon, latLngOf, makeMap, stateColor } from "../map.js";
+import { fleetColor, fleetOverlay } from "../map-fleet.js";
+import { missionProgress } from "../mission-progress.js";
 import { el, fmtAgo } from "../ui.js";
 
 const L = window.L;
+
+const ENDED = new Set(["completed", "failed", "stopped", "planned"]);
+/** Running missions shown at most (the newest). */
+const MAX_SHOWN = 5;
+
+/** Every running mission's progress (issue 29), read every 3 s: bars, steps, time left, events. */
+function runningMissions() {
+  const list = el("div", { class: "missions-list" });
+  const none = el("p", { class: "hint", id: "fleet-no-mission" }, "No mission is running.");
+  const shown = new Map();  // mission id -> its progress panel
+  const element = el("section", { id: "fleet-missions", "aria-label": "Running missions" }, el("h2", {}, "Running missions"), none, list);
+
+  async function refresh() {
+    let running;
+    try {
+      running = (await api("/missions")).filter((m) => !ENDED.has(m.state)).slice(0, MAX_SHOWN);
+    } catch { return; }  // the link state says why; the panels stay as they were
+    const views = await Promise.all(running.map((m) => api(`/missions/${m.mission_id}/progress`).catch(() => null)));
+    const keep = new Set();
+    running.forEach((m, i) => {
+      if (!views[i]) return;
+      keep.add(m.mission_id);
+      if (!shown.has(m.mission_id)) {
+        const safe = m.mission_id.replace(/[^A-Za-z0-9_-]/g, "_");
+        const panel = missionProgress({ idPrefix: `fleet-progress-${safe}` });
+        panel.box = el("article", { class: "fleet-mission", "data-mission": m.mission_id }, el("h3", {}, `${m.name || "mission"} (${m.mission_id})`), panel.element);
+        shown.set(m.mission_id, panel);
+      }
+      shown.get(m.mission_id).show(views[i]);
+    });
+    for (const id of [...shown.keys()]) if (!keep.has(id)) shown.delete(id);
+    list.replaceChildren(...[...shown.values()].map((p) => p.box));
+    none.hidden = shown.size > 0;
+  }
+  return { element, refresh };
+}
 
 /** The battery with its level in words as well as colour (issue 14). */
 function batteryCell(d) {
@@ -26,10 +65,12 @@ export async function mount(root, ctx) {
     panel.show(id);
     for (const b of body.querySelectorAll("button.select")) b.setAttribute("aria-pressed", String(b.dataset.drone === id));
   };
+  const missions = runningMissions();
   root.append(el("h1", {}, "Fleet"), el("div", { class: "split" }, mapBox,
-    el("div", { class: "side", tabindex: "0", role: "region", "aria-label": "Drones and the selected drone" }, table, panel.element)));
+    el("div", { class: "side", tabindex: "0", role: "region", "aria-label": "Drones and the selected drone" }, table, missions.element, panel.element)));
   const map = await makeMap(mapBox, { search: true });
   const markers = new Map();
+  const overlay = fleetOverlay(map, ctx.fleet); // homes, targets, tracks (issue 29)
   let fitted = false;
 
   function render() {
@@ -54,15 +95,12 @@ export async function mount(root, ctx) {
       points.push(at);
       let m = markers.get(d.drone_id);
       if (!m) {
-        m = {
-          marker: L.marker(at, { icon: droneIcon(d), keyboard: false }).on("click", () => select(d.drone_id)).addTo(map),
-          trail: L.polyline([], { weight: 2, opacity: 0.6 }).addTo(map),
-        };
+        m = { marker: L.marker(at, { icon: droneIcon(d), keyboard: false }).on("click", () => select(d.drone_id)).addTo(map) };
         markers.set(d.drone_id, m);
       }
-      m.marker.setLatLng(at).setIcon(droneIcon(d));
-      m.trail.setLatLngs(d.trail).setStyle({ color: stateColor(d) });
+      m.marker.setLatLng(at).setIcon(droneIcon(d, fleetColor(ctx.fleet, d.drone_id)));
     }
+    overlay.update();
     if (!fitted && points.length) {
       map.fitBounds(L.latLngBounds(points).pad(0.5), { maxZoom: 19 });
       fitted = true;
@@ -77,11 +115,14 @@ export async function mount(root, ctx) {
   };
   ctx.fleet.addEventListener("change", onChange);
   const ticker = setInterval(render, 2000);
+  const missionTicker = setInterval(missions.refresh, 3000);
+  missions.refresh();
   render();
   return () => {
     panel.destroy();
     ctx.fleet.removeEventListener("change", onChange);
     clearInterval(ticker);
+    clearInterval(missionTicker);
     map.remove();
   };
 }

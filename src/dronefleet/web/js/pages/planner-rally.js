@@ -1,5 +1,6 @@
 // The Planner's rally points (issue 14): where a drone sent home early (abort, handover, lost)
-// lands instead of home when one is nearer. Added by clicking the map in their own mode, or typed.
+// lands instead of home when one is nearer. Added by clicking the map in their own mode, or typed;
+// dragged on the map to move one, right-clicked to delete it (issue 29): the field follows.
 import { el, field } from "../ui.js";
 
 const L = window.L;
@@ -11,7 +12,7 @@ export function rallyEditor() {
   let layer = null;
   const text = el("textarea", { id: "plan-rally", rows: 3, placeholder: "lat, lon[, height m] per line (none: home only)" });
   const toggle = el("button", { type: "button", id: "rally-mode", "aria-pressed": "false", onclick: () => setMode(!on) }, "Add rally points");
-  const hint = el("p", { class: "hint", id: "rally-hint", hidden: true }, "Click the map to add rally points; press the button again to stop.");
+  const hint = el("p", { class: "hint", id: "rally-hint", hidden: true }, "Click the map to add rally points; press the button again to stop. Drag one to move it; right-click it to delete it.");
   const clear = el("button", { type: "button", id: "rally-clear", onclick: () => set([]) }, "Clear rally points");
 
   function setMode(value) {
@@ -29,8 +30,20 @@ export function rallyEditor() {
   function draw() {
     if (!layer) return;
     layer.clearLayers();
-    points().forEach((p, i) => L.circleMarker([p.lat, p.lon], { radius: 7, color: "#16a34a", weight: 3, className: "rally-marker" })
-      .bindTooltip(`R${i + 1} (${p.alt_m} m)`, { permanent: true, direction: "top", className: "rally-label" }).addTo(layer));
+    const list = points();
+    list.forEach((p, i) => {
+      const icon = L.divIcon({ html: el("span", {}, `R${i + 1}`), className: "waypoint-pin rally rally-marker", iconSize: null, iconAnchor: [12, 12] });
+      const marker = L.marker([p.lat, p.lon], { icon, draggable: true, keyboard: false, title: `rally point R${i + 1}, ${p.alt_m} m` })
+        .bindTooltip(el("span", {}, `R${i + 1} (${p.alt_m} m)`), { permanent: true, direction: "top", offset: [0, -12], className: "rally-label" })
+        // Redrawn after Leaflet is done with the marker's own event.
+        .on("dragend", (e) => {
+          const at = e.target.getLatLng();
+          setTimeout(() => set(list.map((q, j) => (j === i ? { ...q, lat: at.lat, lon: at.lng } : q))), 0);
+        })
+        .on("contextmenu", () => setTimeout(() => set(list.filter((_, j) => j !== i)), 0))
+        .addTo(layer);
+      marker.getElement().dataset.rally = String(i);
+    });
   }
 
   function set(list) {

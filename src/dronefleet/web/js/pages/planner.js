@@ -3,6 +3,8 @@ import { api } from "../api.js";
 import { downloadMissionLog } from "../download.js";
 import { dronePanel } from "../drone-panel.js";
 import { colorFor, droneIcon, latLngOf, makeMap } from "../map.js";
+import { planEditing } from "../map-edit.js";
+import { latestEvent, missionProgress } from "../mission-progress.js";
 import { addMissionOptions } from "../missions.js";
 import { el, field, fmtDuration, toast } from "../ui.js";
 import { planFiles } from "./planner-files.js";
@@ -42,6 +44,14 @@ export async function mount(root, ctx) {
     el("option", { value: "land" }, "Land where the work ends"),
     el("option", { value: "hold" }, "Hold there (an operator takes over)"));
   const drones = el("fieldset", { class: "drones", id: "plan-drones" }, el("legend", {}, "Drones"));
+  // What the planner may do while the mission flies (issue 29: on by default, as the API's).
+  const replacement = el("input", { type: "checkbox", id: "plan-replacement", checked: true });
+  const collaboration = el("input", { type: "checkbox", id: "plan-collaboration", checked: true });
+  const behaviour = el("fieldset", { class: "options-box", id: "plan-behaviour" }, el("legend", {}, "While it flies"),
+    el("div", { class: "field check" }, replacement, el("label", { for: "plan-replacement" },
+      "Replacement: an idle drone takes over from one with a CRITICAL alarm or a low battery")),
+    el("div", { class: "field check" }, collaboration, el("label", { for: "plan-collaboration" },
+      "Collaboration: a reading out of bounds grows the area and calls idle drones")));
   const status = el("div", { id: "mission-status", class: "status", role: "status", "aria-live": "polite" }, "No mission sent yet.");
   const watch = el("select", { id: "plan-watch" }, el("option", { value: "" }, "— the one sent from here —"));
   const estimate = el("div", { id: "plan-estimate" });
@@ -59,6 +69,7 @@ export async function mount(root, ctx) {
   const rally = rallyEditor();
   const files = planFiles({ spec: () => spec(), load: (answer) => load(answer) });
   const mapBox = el("div", { class: "map", id: "planner-map" });
+  const progress = missionProgress({ idPrefix: "plan-progress", colorOf: (id) => colorOf(id) });
   const can = ctx.me.can_command;
   const btn = (id, label, onclick, extra = {}) => el("button", { type: "button", id, onclick, ...extra }, label);
 
@@ -85,11 +96,11 @@ export async function mount(root, ctx) {
   kind.addEventListener("change", () => { areaTab.hidden = kind.value !== "area"; stepsTab.hidden = kind.value !== "steps"; });
 
   root.append(el("h1", {}, "Planner"), el("div", { class: "split" }, mapBox, el("div", { class: "side" },
-    files.box, field("Mission", kind), areaTab, stepsTab, drones, field("When done", endAction), rally.box,
+    files.box, field("Mission", kind), areaTab, stepsTab, drones, behaviour, field("When done", endAction), rally.box,
     el("div", { class: "buttons" },
       btn("plan-preview", "Preview", preview, { disabled: !can }),
       btn("plan-send", "Send", send, { class: "primary", disabled: !can })),
-    estimate, field("Watch a mission", watch), status, readingsKey,
+    estimate, field("Watch a mission", watch), status, progress.element, readingsKey,
     el("div", { class: "buttons" },
       btn("plan-pause", "Pause", () => pauseOrResume("pause"), { disabled: !can, title: "Its drones hold; Resume flies on" }),
       btn("plan-resume", "Resume", () => pauseOrResume("resume"), { disabled: !can, title: "Fly on with a paused mission (paused here, or a drone taken over by someone else)" }),
@@ -104,6 +115,7 @@ export async function mount(root, ctx) {
   watch.addEventListener("change", () => {
     if (!watch.value) return;
     s.missionId = watch.value;
+    s.lastEvent = null;
     for (const t of trails.values()) t.setLatLngs([]);
     poll();
   });
@@ -136,6 +148,7 @@ export async function mount(root, ctx) {
     corners.clearLayers();
     for (const v of s.vertices) L.circleMarker(v, { radius: 4, color: "#2563eb" }).addTo(corners);
     inputs.polygon.value = s.vertices.map(([a, b]) => `${a.toFixed(7)}, ${b.toFixed(7)}`).join("\n");
+    edits.refresh();
   }
 
   map.on("click", (e) => {
@@ -155,7 +168,9 @@ export async function mount(root, ctx) {
     drawShape();
   });
   const fenceLine = L.polygon([], { color: "#dc2626", weight: 2, dashArray: "6 4", fill: false }).addTo(map);
-  function drawFence() { fenceLine.setLatLngs(cornersOf(inputs.fence.value)); }
+  function drawFence() { fenceLine.setLatLngs(cornersOf(inputs.fence.value)); edits.refresh(); }
+  // Corners, fence and a step list's waypoints dragged on the map; the fields follow (issue 29).
+  const edits = planEditing(map, { shape, fence: fenceLine, polygon: inputs.polygon, fenceText: inputs.fence, steps: editor.box });
   inputs.fence.addEventListener("change", drawFence);
   inputs.polygon.addEventListener("change", () => {
     s.vertices = inputs.polygon.value.split("\n").map((line) => line.split(",").map(Number)).filter((p) => p.length === 2 && p.every(Number.isFinite));
@@ -206,7 +221,13 @@ export async function mount(root, ctx) {
 
   function spec() {
     const chosen = [...drones.querySelectorAll("input:checked")].map((i) => i.value);
-    const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen, options: { end_action: endAction.value } };
+    const options = {
+      end_action: endAction.value,
+      // Off means no replacement of any kind: neither on an alarm nor before the battery runs low.
+      replacement: replacement.checked, early_replacement: replacement.checked,
+      collaboration: collaboration.checked,
+    };
+    const body = { name: `web ${new Date().toISOString().slice(0, 19)}`, drones: chosen, options };
     const fence = cornersOf(inputs.fence.value);
     if (fence.length || inputs.ceiling.value !== "" || files.exclusions().length) {
       body.options.geofence = { exclusions: files.exclusions() };
@@ -253,9 +274,10 @@ export async function mount(root, ctx) {
     try {
       const answer = await api("/missions/preview", { method: "POST", body: spec() });
       const points = answer.waypoints.map((w) => [w.lat, w.lon]);
-      route.setLatLngs(points);
+      const perDrone = edits.route(answer, colorOf); // each drone's share in its colour (issue 29)
+      route.setLatLngs(perDrone ? [] : points);
       waypoints.clearLayers();
-      points.forEach((p, i) => L.circleMarker(p, { radius: 3, color: "#f97316" }).bindTooltip(`#${i + 1}`).addTo(waypoints));
+      if (!perDrone) points.forEach((p, i) => L.circleMarker(p, { radius: 3, color: "#f97316" }).bindTooltip(el("span", {}, `#${i + 1}`)).addTo(waypoints));
       estimate.replaceChildren(el("table", { class: "grid", id: "estimate-table" },
         el("caption", {}, `${points.length} waypoints${answer.area_m2 ? `, ${answer.area_m2} m²` : ""}; when done: ${END_NAMES[answer.end_action] || answer.end_action}`),
         el("thead", {}, el("tr", {}, ...["Drone", "Steps", "Time", "Battery used", "Battery left", "Ends with", "Notes"].map((h) => el("th", { scope: "col" }, h)))),
@@ -288,7 +310,9 @@ export async function mount(root, ctx) {
       const query = { start: "true", override: decision.override || undefined };
       const record = await api("/missions", { method: "POST", body, query });
       s.missionId = record.mission_id;
+      s.lastEvent = null;
       showMission(record);
+      poll();
       toast(`mission ${record.mission_id} sent${decision.override ? " (checks overridden)" : ""}`);
     } catch (err) {
       refused("Send", err);
@@ -330,7 +354,9 @@ export async function mount(root, ctx) {
     status.dataset.state = m.state;
     status.dataset.mission = m.mission_id;
     status.dataset.handovers = String(handovers ?? 0);
-    status.textContent = `Mission ${m.mission_id}: ${m.state} — ${m.steps_done}/${m.steps} steps, ${m.waypoints_reached}/${m.waypoints} waypoints, ${handovers} handover(s)${m.error ? ` — ${m.error}` : ""}`;
+    // What happened last (an expansion, a handover, a pause) says what the planner did.
+    const last = s.lastEvent && s.lastEvent.mission === m.mission_id ? ` — last: ${s.lastEvent.text}` : "";
+    status.textContent = `Mission ${m.mission_id}: ${m.state} — ${m.steps_done}/${m.steps} steps, ${m.waypoints_reached}/${m.waypoints} waypoints, ${handovers} handover(s)${m.error ? ` — ${m.error}` : ""}${last}`;
     if (Array.isArray(m.handovers)) showHandovers(m.handovers);
   }
 
@@ -342,7 +368,7 @@ export async function mount(root, ctx) {
       if (!at) continue;
       const text = `handover: ${h.from_drone} → ${h.to_drone || "nobody"} (${h.kind || ""})`;
       L.circleMarker([at.lat, at.lon], { radius: 9, color: "#dc2626", weight: 3, fill: false, className: "handover-marker" })
-        .bindTooltip(text, { permanent: true, direction: "right", className: "handover-label" }).addTo(handoverLayer);
+        .bindTooltip(el("span", {}, text), { permanent: true, direction: "right", className: "handover-label" }).addTo(handoverLayer);
     }
   }
 
@@ -405,7 +431,15 @@ export async function mount(root, ctx) {
   });
   async function poll() {
     if (!s.missionId) return;
-    try { showMission(await api(`/missions/${s.missionId}`)); } catch { /* the stream will tell */ }
+    const id = s.missionId;
+    try {
+      const view = await api(`/missions/${id}/progress`);
+      if (id !== s.missionId) return;  // another mission was chosen meanwhile
+      const last = latestEvent(view);
+      s.lastEvent = last ? { mission: id, text: last.text } : null;
+      progress.show(view);
+    } catch { /* the stream will tell */ }
+    try { showMission(await api(`/missions/${id}`)); } catch { /* the stream will tell */ }
     try { showReadings(await api(`/missions/${s.missionId}/readings`)); } catch { showReadings(null); }
   }
   const poller = setInterval(poll, 3000);

@@ -86,6 +86,8 @@ export async function mount(root, ctx) {
     if (!log || !Array.isArray(log.drones)) throw new Error("no drones in this file");
     layers.clearLayers();
     if (log.area && log.area.polygon) L.polygon(log.area.polygon, { color: "#9ca3af", weight: 1, fillOpacity: 0.05 }).addTo(layers);
+    // A dropped file is untrusted input (issue 25): every name in it goes on the page as text —
+    // a Leaflet tooltip given a string would insert it as HTML, so it gets a text node.
     tracks = log.drones.map((d, i) => {
       const color = colorFor(i);
       const all = d.path.map((p) => [p.lat, p.lon]);
@@ -93,7 +95,7 @@ export async function mount(root, ctx) {
       return {
         d, path: d.path,
         line: L.polyline([], { color, weight: 3, className: "replay-path" }).addTo(layers),
-        dot: L.circleMarker(all[0] || [0, 0], { radius: 6, color, fillOpacity: 0.9 }).bindTooltip(d.drone_id, { permanent: true }).addTo(layers),
+        dot: L.circleMarker(all[0] || [0, 0], { radius: 6, color, fillOpacity: 0.9 }).bindTooltip(el("span", {}, d.drone_id), { permanent: true }).addTo(layers),
       };
     });
     const times = tracks.flatMap((t) => t.path.map((p) => p.t));
