@@ -1,6 +1,6 @@
 """Chaos suite (issue 26, item 8): drawn fault schedules over the real bridged topology, checked.
 
-Each schedule (tests/support/chaos.py) starts a ground Mosquitto, three drones (``dronefleet
+Each schedule (tests/support/chaos/) starts a ground Mosquitto, three drones (``dronefleet
 drone --fc sim``, each with its own Mosquitto bridged to the ground's through a TCP proxy),
 ``dronefleet ground`` (its state on a tmpfs when run as root), posts a 60 x 40 m area at 10 m
 spacing for the three over REST, and makes 1-3 faults at random times while it is flown: SIGKILL

@@ -1,6 +1,6 @@
 """Chaos (issue 26, item 8): five fixed fault schedules over the real bridged topology.
 
-Each is a row of ``bench/chaos.py`` (tests/support/chaos.py): three ``dronefleet drone --fc sim``
+Each is a row of ``bench/chaos.py`` (tests/support/chaos/): three ``dronefleet drone --fc sim``
 processes at 5x, each with its own Mosquitto bridged to the ground's through a TCP proxy,
 ``dronefleet ground``, an area for the three posted over REST, and the seed's faults while it is
 flown. Then: every report a drone sent is in the planner's record, no waypoint flown twice, the
