@@ -86,8 +86,9 @@ class Vehicle:
         """SERIAL1: a second ground station's link (SERIAL0 is the drone's)."""
         return f"tcp:127.0.0.1:{5762 + 10 * self.instance}"
 
-    def swap_battery(self) -> None:
-        """A full pack, as after landing and changing it: MAV_CMD_BATTERY_RESET to 100 %."""
+    def swap_battery(self, pct: float = 100.0) -> None:
+        """A fresh pack, as after landing and changing it: MAV_CMD_BATTERY_RESET to ``pct``
+        (a full one by default; less for a vehicle that must be relieved in flight)."""
         from pymavlink import mavutil
 
         conn = mavutil.mavlink_connection(self.second_url, source_system=251)
@@ -96,7 +97,7 @@ class Vehicle:
             m = mavutil.mavlink
             for _ in range(5):
                 conn.mav.command_long_send(
-                    conn.target_system, 1, m.MAV_CMD_BATTERY_RESET, 0, 0xFF, 100, 0, 0, 0, 0, 0
+                    conn.target_system, 1, m.MAV_CMD_BATTERY_RESET, 0, 0xFF, pct, 0, 0, 0, 0, 0
                 )
                 ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=2)
                 if ack is not None and ack.command == m.MAV_CMD_BATTERY_RESET:

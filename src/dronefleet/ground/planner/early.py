@@ -3,8 +3,10 @@
 After each step a drone reports, its remaining work is costed against its battery (the vehicle
 model's energy estimate). If it cannot finish with the reserve left, the planner finds the last
 waypoint unit it can finish, picks the replacement, and launches it when the replacement's
-preparation and transit take as long as the old drone's remaining share: the new drone arrives as
-the old one leaves, and the handover gap is near zero instead of arming + climb + transit.
+preparation and transit take as long as the old drone's remaining share (its way home not
+counted), or would take longer by the next check (the old drone's next waypoint): the new drone
+arrives as the old one leaves, or a little before, and the handover gap is near zero instead of
+arming + climb + transit.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Any
 from dronefleet.geo.types import LLA
 from dronefleet.ground.planner.deconflict import Share
 from dronefleet.ground.planner.ends import GO_HOME, EndAction, end_steps
-from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.estimate import can_finish, drone_model, estimate, fleet_draws
 from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import (
@@ -39,15 +41,49 @@ from dronefleet.messaging.commands import Command
 
 log = logging.getLogger(__name__)
 
-#: Launch this many vehicle seconds before the computed moment (command latency, spool-up).
-LAUNCH_MARGIN_S = 1.5
+#: Launch this many vehicle seconds before the computed moment. Arriving early costs nothing but
+#: a little overlap (the replacement approaches 3 m above the work and is kept clear of the drone
+#: it relieves); arriving late is the gap this module exists to close. Measured on ArduPilot SITL
+#: (tests/integration/sitl/test_early_replacement_on_ardupilot.py, beside two busy loops): the
+#: tired copter's last waypoints came up to 2.8 s sooner than estimated (estimated from a hover,
+#: it was already under way), the relief's take-off and transit took up to 1.6 s longer, and
+#: placing and sending the legs after the decision took up to 0.3 wall s (3 vehicle s at SITL's
+#: 10x); the worker's own time is measured (:func:`_note_delay`).
+LAUNCH_MARGIN_S = 8.0
+#: The longest delay of a check counted (vehicle s): a ground stalled once does not make every
+#: later relief leave a minute early.
+MAX_CHECK_DELAY_S = 30.0
 
 
 async def check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
+    """Check ``leg`` after a step report, and once more for steps reported meanwhile: a check
+    takes several vehicle seconds on a loaded host (0.8 wall s, 8 at SITL's 10x), longer than
+    a short leg between two survey rows, and a report skipped left the next decision a whole
+    unit late."""
     try:
-        await _check(planner, record, leg)
+        while True:
+            planner.check_again.discard(leg.leg_id)
+            await _check(planner, record, leg)
+            if leg.leg_id not in planner.check_again:
+                break
     finally:
         planner.checking.discard(leg.leg_id)
+        planner.check_again.discard(leg.leg_id)
+        if not _watched(record, leg):
+            planner.check_delays.pop(leg.leg_id, None)
+
+
+def _note_delay(planner: PlannerOps, leg: Leg, asked_at: Any) -> None:
+    """Keep the longest delay of ``leg``'s checks, in its drone's own vehicle seconds (its
+    telemetry's clock when the check began, then when the worker answered). The estimates run in
+    the planning worker, which on a loaded host took 0.4-0.8 wall s: 4-8 vehicle s of a SITL
+    copter at 10x, or of any drone in a stalled moment. The next decision launches that much
+    sooner (:func:`decide`, ``delay_s``)."""
+    now = (planner.latest.get(leg.drone_id) or {}).get("vehicle_time_s")
+    if not isinstance(asked_at, int | float) or not isinstance(now, int | float):
+        return
+    delay = min(max(now - asked_at, 0.0), MAX_CHECK_DELAY_S)
+    planner.check_delays[leg.leg_id] = max(planner.check_delays.get(leg.leg_id, 0.0), delay)
 
 
 def _watched(record: MissionRecord, leg: Leg) -> bool:
@@ -77,6 +113,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         return
     here = LLA(latest["lat"], latest["lon"], latest.get("alt_m", 0.0))
     battery = float(latest["battery_pct"])
+    asked_at = latest.get("vehicle_time_s")
     left = remaining(record.work, leg.indices, set(record.done))
     if not left:
         return
@@ -99,7 +136,11 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         # The way home counts against the battery it keeps; landing where it is, as the seed's
         # did, is left to the reserve (the experiments' figures stay the seed's).
         leaving_steps(record.options.end_action) if record.options.end_action == "rtl" else [],
+        Wind(drone.wind, record.options.wind_mps, record.options.wind_from_deg),
+        drone.flight,
+        planner.check_delays.get(leg.leg_id, 0.0),
     )
+    _note_delay(planner, leg, asked_at)
     if decision is None:
         return
     if isinstance(decision, str):
@@ -134,6 +175,13 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         # an extension may have ended the leg while the worker computed.
         if not leg.active or record.terminal or record.handed_over(leg):
             return
+        # Its reports went on arriving while the worker computed: what it flew meanwhile is not
+        # flown again (a loaded host's SITL copter reached its next waypoint twice), and a
+        # decision it has already flown past is dropped (the next report checks again).
+        done = set(record.done)
+        if any(i in done for i in rest):
+            return
+        kept = remaining(record.work, kept, done)  # a unit begun is flown whole
         leg.state = LegState.REPLACED
         leaving = Leg(
             leg_id=planner.next_leg_id(record),
@@ -187,6 +235,20 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
 
 
 @dataclass(frozen=True)
+class Wind:
+    """The wind an in-flight decision is estimated in: the mission's (``mps`` from
+    ``from_deg``), else each drone's autopilot's estimate (``reported``: the tired drone's)."""
+
+    reported: dict[str, Any] | None = None
+    mps: float | None = None
+    from_deg: float = 0.0
+
+    def given(self, reported: dict[str, Any] | None) -> dict[str, Any]:
+        """Keyword arguments of estimate.drone_model for a drone that reports ``reported``."""
+        return {"reported_wind": reported, "wind_mps": self.mps, "wind_from_deg": self.from_deg}
+
+
+@dataclass(frozen=True)
 class Decision:
     """An early handover worked out by :func:`decide`."""
 
@@ -196,7 +258,7 @@ class Decision:
     rest: list[int]  # indices handed over
     units: list[list[int]]  # the units of work left
     keep: int  # how many of them it keeps
-    t_old: float  # seconds the leaving drone still flies
+    t_old: float  # seconds the leaving drone still works (its way home not counted)
     t_new: float  # seconds the new one needs to get there
     leave_at: tuple[float, float]
 
@@ -220,13 +282,25 @@ def decide(
     busy: set[str],
     strategy: str,
     way_out: list[dict[str, Any]],
+    wind: Wind | None = None,
+    flight: dict[str, Any] | None = None,
+    delay_s: float = 0.0,
 ) -> Decision | str | None:
     """Whether to hand the rest of ``left`` over now: None (not yet, or no need), a reason why
-    nobody can, or the handover. Runs in the planning worker (ground/planner/worker.py)."""
+    nobody can, or the handover. Each drone is estimated as its own vehicle flies (``flight``:
+    the tired one's; estimate.drone_model), in ``wind``. A handover decided now reaches the
+    drones ``delay_s`` later (what the checks took, :func:`_note_delay`). Runs in the planning
+    worker (ground/planner/worker.py)."""
+    wind = wind or Wind()
+    draws = fleet_draws([flight, *(d.flight for d in fleet)])
+    model = drone_model(flight, draws, **wind.given(wind.reported))
 
-    def cost(indices: list[int]) -> Any:  # what it keeps, then its ``way_out``
-        steps = [*(work[i] for i in indices), *way_out]
-        return estimate(steps, start=here, home=home, airborne=True, battery_pct=battery)
+    def cost(indices: list[int], out: list[dict[str, Any]] | None = None) -> Any:
+        """What it keeps, then its way ``out`` (``way_out``, by default)."""
+        steps = [*(work[i] for i in indices), *(way_out if out is None else out)]
+        return estimate(
+            steps, start=here, home=home, airborne=True, battery_pct=battery, model=model
+        )
 
     if can_finish(cost(left), reserve_pct=reserve_pct)[0]:
         return None
@@ -234,15 +308,21 @@ def decide(
     keep = _units_within(groups, lambda idx: can_finish(cost(idx), reserve_pct=reserve_pct)[0])
     kept = [i for g in groups[:keep] for i in g]
     rest = [i for g in groups[keep:] for i in g]
-    t_old = cost(kept).duration_s if kept else 0.0
+    # Until it leaves its last waypoint: its way home is no part of the handover (counted in, a
+    # drone going home by RTL never seemed near leaving, and the replacement only left once the
+    # tired drone could keep nothing: 23 vehicle s without a waypoint on SITL).
+    t_old = cost(kept, []).duration_s if kept else 0.0
+    # The next check comes with its next waypoint: launched then, would the replacement be late?
+    t_next = cost(groups[0], []).duration_s if kept else 0.0
     leave = next(
         (work[i] for i in reversed(kept) if work[i].get("command") == Command.NAVIGATE), None
     )
     leave_at = (leave["lat"], leave["lon"]) if leave else (here.lat, here.lon)
     altitude = mission_altitude(work)
     chosen, prefix = pick(
-        reserve_pct, fleet, leave_at, [work[i] for i in rest], altitude, busy, strategy
-    )
+        reserve_pct, fleet, leave_at, [work[i] for i in rest], altitude, busy, strategy,
+        wind.mps, wind.from_deg,
+    )  # fmt: skip
     if chosen is None:
         return str(prefix) if keep == 0 else None
     # Approach 3 m above the work so the two drones never share a height at the handover.
@@ -253,7 +333,11 @@ def decide(
         home=chosen.home,
         airborne=chosen.airborne,
         battery_pct=chosen.battery_pct,
+        model=drone_model(chosen.flight, draws, **wind.given(chosen.wind)),
     ).duration_s
-    if t_old > t_new + LAUNCH_MARGIN_S:
-        return None  # not yet: checked again after the next step
+    # Not launched now, it would be at the next decision: after the next waypoint's report, or
+    # after this check's delay if that is longer (a step reported meanwhile is checked at once
+    # after), and that decision takes its delay too. Launch now if that would be late.
+    if t_old - max(t_next, delay_s) > t_new + delay_s + LAUNCH_MARGIN_S:
+        return None  # not yet: the next decision is still in time
     return Decision(chosen, prefix, kept, rest, groups, keep, t_old, t_new, leave_at)

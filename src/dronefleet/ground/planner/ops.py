@@ -28,6 +28,8 @@ class PlannerOps(Protocol):
     lost_epochs: dict[str, int]  # drone id -> times it was declared lost or back
     confirming: set[str]  # legs whose drone's loss is being confirmed (ground/planner/lost.py)
     trimming: set[str]  # replacement legs about to be cut to what nobody flew (lost.py)
+    check_delays: dict[str, float]  # leg id -> its early checks' longest delay (early.py)
+    check_again: set[str]  # legs that reported a step while their early check ran (early.py)
 
     @property
     def lock(self) -> asyncio.Lock:

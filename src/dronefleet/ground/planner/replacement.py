@@ -30,7 +30,7 @@ from typing import Any
 
 from dronefleet.ground.planner.deconflict import Share
 from dronefleet.ground.planner.ends import GO_HOME, end_steps
-from dronefleet.ground.planner.estimate import can_finish, estimate
+from dronefleet.ground.planner.estimate import can_finish, drone_model, estimate, fleet_draws
 from dronefleet.ground.planner.fleet_view import DroneView, candidates
 from dronefleet.ground.planner.legs import mission_altitude, preparation
 from dronefleet.ground.planner.models import (
@@ -70,12 +70,16 @@ def pick(
     altitude_m: float,
     exclude: set[str],
     strategy: str,
+    wind_mps: float | None = None,
+    wind_from_deg: float = 0.0,
 ) -> tuple[DroneView, list[dict[str, Any]]] | tuple[None, str]:
-    """The nearest candidate that can finish; or (None, reason). CPU work (an estimate per
+    """The nearest candidate that can finish, each estimated as its own vehicle flies
+    (estimate.drone_model) in the mission's wind; or (None, reason). CPU work (an estimate per
     candidate): callers run it in the planning worker (ground/planner/worker.py)."""
     from dronefleet.geo.types import LLA
 
     target = LLA(near[0], near[1])
+    draws = fleet_draws([d.flight for d in fleet])
     reasons = []
     for drone in candidates(fleet, target, exclude=exclude):
         prefix = preparation(drone, altitude_m, strategy=strategy, go_to=near)
@@ -85,7 +89,11 @@ def pick(
             home=drone.home,
             airborne=drone.airborne,
             battery_pct=drone.battery_pct,
-        )
+            model=drone_model(
+                drone.flight, draws, reported_wind=drone.wind, wind_mps=wind_mps,
+                wind_from_deg=wind_from_deg,
+            ),
+        )  # fmt: skip
         ok, why = can_finish(est, reserve_pct=reserve_pct)
         if ok:
             return drone, prefix
@@ -257,6 +265,8 @@ async def choose(
             altitude,
             planner.busy_drones() | {leg.drone_id},
             record.options.strategy,
+            record.options.wind_mps,
+            record.options.wind_from_deg,
         )
     except Exception as exc:  # over its budget on a loaded host, a worker lost: nobody this time
         log.warning("mission %s: choosing a replacement failed: %r", record.mission_id, exc)

@@ -58,9 +58,12 @@ async def on_progress(planner: MissionPlanner, topic_name: str, payload: bytes) 
     data = msg.model_dump(mode="json", exclude_none=True)
     planner.emit("progress", **{**data, "mission_id": mission_id, "leg_id": leg.leg_id})
     await after_progress(planner, record, leg, msg)
-    if msg.event is ProgressEvent.STEP and leg.active and leg.leg_id not in planner.checking:
+    if msg.event is ProgressEvent.STEP and leg.active:
         from dronefleet.ground.planner import early
 
+        if leg.leg_id in planner.checking:  # checked again as soon as the running check ends
+            planner.check_again.add(leg.leg_id)
+            return
         planner.checking.add(leg.leg_id)
         planner.spawn(early.check(planner, record, leg), f"early:{leg.leg_id}")
 

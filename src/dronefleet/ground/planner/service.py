@@ -99,6 +99,8 @@ class MissionPlanner:
         self._dirty: set[str] = set()
         self._flusher: asyncio.Task[None] | None = None
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
+        self.check_delays: dict[str, float] = {}  # early replacement's own delay
+        self.check_again: set[str] = set()  # a step reported while its early check ran
         self._checking: set[str] = set()  # legs whose early-replacement check is running
         self.gap_asked: dict[str, float] = {}  # leg id -> when its missing reports were asked
         self.gap_since: dict[str, float] = {}  # leg id -> when its gap first held its mission open

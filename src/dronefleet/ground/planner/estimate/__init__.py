@@ -30,6 +30,7 @@ from __future__ import annotations
 from dronefleet.ground.planner.estimate.fleet_draws import (
     CONSERVATIVE_DRAW_A,
     airframe,
+    drone_model,
     fleet_draws,
     with_fleet_draw,
 )
@@ -47,6 +48,7 @@ __all__ = [
     "Verdict",
     "airframe",
     "can_finish",
+    "drone_model",
     "estimate",
     "fleet_draws",
     "part",

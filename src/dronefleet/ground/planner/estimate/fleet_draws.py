@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from dronefleet.ground.planner.estimate.vehicle import VehicleModel, vehicle_model
+
 #: The draw assumed in the air for an airframe nobody in the fleet has measured yet (issue 28):
 #: above what ArduPilot Copter SITL's quad was measured to draw (about 30 A, drone/draw.py), not
 #: the dissertation quad's 18 A hover, so a first flight is not planned on a battery it lacks.
@@ -63,3 +65,23 @@ def with_fleet_draw(
         " until it has flown"
     )
     return {**flight, "flight_current_a": assumed}, note
+
+
+def drone_model(
+    flight: dict[str, Any] | None,
+    draws: dict[tuple, list[float]],
+    *,
+    reported_wind: dict[str, Any] | None = None,
+    wind_mps: float | None = None,
+    wind_from_deg: float = 0.0,
+) -> VehicleModel:
+    """The model one drone's estimates fly: its autopilot's figures (``Heartbeat.flight``) with
+    the draw :func:`with_fleet_draw` gives it, in the mission's wind or its autopilot's. Without
+    it an in-flight decision (early replacement, choosing a replacement) flew the dissertation
+    quad's 18 A and 10 m/s: on ArduPilot SITL (about 30 A) the tired copter found it could not
+    finish one more waypoint at 23 % and left with nobody on the way (issue 28, item 5)."""
+    drawn, _ = with_fleet_draw(flight, draws)
+    model, _ = vehicle_model(
+        drawn, reported_wind=reported_wind, wind_mps=wind_mps, wind_from_deg=wind_from_deg
+    )
+    return model
