@@ -169,6 +169,56 @@ def test_another_stations_hold_pauses_the_mission_and_resume_flies_the_rest(grou
     down_at_home(ground, "PX4_1", home)
 
 
+def test_a_companion_flown_area_mission_completes_with_the_default_end(ground, fly):
+    fly("PX4_1")
+    home = home_of(ground.drone("PX4_1"))
+    corners = [ned_to_lla(NED(n, e, 0), home) for n, e in [(20, 0), (60, 0), (60, 30), (20, 30)]]
+    spec = {
+        "name": "area on PX4",
+        "drones": ["PX4_1"],
+        "area": {
+            "polygon": [[c.lat, c.lon] for c in corners],
+            "spacing_m": 15,
+            "altitude_m": ALT_M,
+        },
+    }
+    mission = ground.run_mission(spec, timeout_s=200)
+    assert mission["state"] == "completed", mission.get("error")
+    assert mission["waypoints_reached"] == mission["waypoints"] >= 4
+    record = ground.api("GET", f"/api/v1/missions/{mission['mission_id']}").json()
+    assert record["legs"][0].get("flown_by") != "autopilot"  # from the companion computer
+    down_at_home(ground, "PX4_1", home)
+
+
+def test_another_stations_rtl_pauses_the_mission_and_brings_the_vehicle_home(ground, fly):
+    vehicle = fly("PX4_1")
+    home = home_of(ground.drone("PX4_1"))
+    spec = {
+        "name": "called home on PX4",
+        "drones": ["PX4_1"],
+        "steps": step_mission(home, [(60, 0), (60, 40)]),
+    }
+    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
+    assert created.status_code == 201, created.text
+    mission_id = created.json()["mission_id"]
+    until(ground, "PX4_1", lambda d: away_m(d, home) > 20, 60, "on its way")
+    other = OtherStation(vehicle)
+    try:
+        other.set_mode(4, 5)  # AUTO.RTL, as QGroundControl's Return
+    finally:
+        other.close()
+    deadline = time.monotonic() + 20
+    mission = {}
+    while time.monotonic() < deadline:
+        mission = ground.api("GET", f"/api/v1/missions/{mission_id}").json()
+        if mission["state"] == "paused":
+            break
+        time.sleep(0.5)
+    assert mission["state"] == "paused", mission
+    assert "taken over" in mission["error"] and "AUTO.RTL" in mission["error"], mission["error"]
+    down_at_home(ground, "PX4_1", home)  # the other station's RTL is flown, never undone
+
+
 def test_a_failed_photo_step_sends_the_vehicle_home_not_hovering(ground, fly):
     """SIH has no camera: the photo step fails in the air (measured before: left hovering 40 m
     out, the mission failed). The drone flies the mission's end, the planner's default RTL."""
