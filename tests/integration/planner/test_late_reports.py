@@ -12,6 +12,7 @@ one process on virtual time.
 from __future__ import annotations
 
 import asyncio
+import sqlite3
 
 import pytest
 
@@ -130,3 +131,34 @@ async def test_a_mission_completed_while_a_drone_was_lost_keeps_what_it_reports_
     assert stored.legs[0].seqs == first.seqs and stored.ended_at == ended_at
     assert going.drone_id == "QUAD_A"
     assert OPTIONS.replacement
+
+
+async def test_a_full_disk_as_the_leg_ends_does_not_leave_the_mission_running() -> None:
+    """Chaos seed 320: the ground's disk was full as the last leg ended; the report's write
+    failed, the handler stopped there, and the mission stayed ``running`` for ever, every step
+    flown. Now the report is kept, the mission ends, and it is written once there is room."""
+    async with Harness(speedup=10) as h:
+        mission_id, _leg, _last_step, _worker = await fly_alone(h)
+        store = h.planner.store
+        save = store.save
+        refused: list[str] = []
+
+        async def full_disk(record) -> None:
+            # Full from the leg's end on, for the first three writes of this mission.
+            ended = not record.legs[0].active
+            if record.mission_id == mission_id and ended and len(refused) < 3:
+                refused.append(record.state.value)
+                raise sqlite3.OperationalError("database or disk is full")
+            await save(record)
+
+        store.save = full_disk
+        record = await h.until_ended(mission_id, timeout_s=240)
+        assert refused, "the disk was never full when the leg ended"
+        for _ in range(100):  # the flusher writes it within 2 s of there being room
+            kept = {r.mission_id: r for r in await store.load_all()}[mission_id]
+            if kept.state is MissionState.COMPLETED:
+                break
+            await asyncio.sleep(0.1)
+    assert record.state is MissionState.COMPLETED, record.error
+    assert record.ended_at is not None
+    assert kept.state is MissionState.COMPLETED and kept.ended_at == record.ended_at

@@ -45,7 +45,10 @@ async def on_progress(planner: MissionPlanner, topic_name: str, payload: bytes) 
             paths.add_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
         if note_seq(leg, msg.seq):
             planner.spawn(reconcile.fill_gap(planner, leg), f"gap:{leg.leg_id}")
-        await planner.save(record)
+        try:
+            await planner.save(record)
+        except Exception as exc:  # a full disk: the report is kept and written when it can be
+            log.warning("mission %s: report not written yet: %s", record.mission_id, exc)
         # A lost drone's replacement that started on its work: the takeover has happened.
         await lost.commit_started(planner, record, leg)
         # A drone taken over that flew on unheard: its replacement flies the rest only.

@@ -32,6 +32,7 @@ from dronefleet.ground.planner import (
 )
 from dronefleet.ground.planner.ends import GO_HOME
 from dronefleet.ground.planner.fleet_view import FleetView
+from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
     Leg,
     LegState,
@@ -97,6 +98,7 @@ class MissionPlanner:
         self._listeners: list[Callable[[str, dict[str, Any]], Any]] = []
         self._tasks: set[asyncio.Task[Any]] = set()
         self._dirty: set[str] = set()
+        self._unwritten: set[str] = set()  # missions a write failed for (a full disk)
         self._flusher: asyncio.Task[None] | None = None
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self.check_delays: dict[str, float] = {}  # early replacement's own delay
@@ -213,8 +215,15 @@ class MissionPlanner:
         return record
 
     async def save(self, record: MissionRecord) -> None:
+        """Write ``record``; one the store could not take (a full disk) stays to be written
+        again by the flusher (:meth:`_flush_paths`) until it is, and the error is raised."""
+        self._dirty.add(record.mission_id)
+        try:
+            await self.store.save(record)
+        except Exception:
+            self._unwritten.add(record.mission_id)
+            raise
         self._dirty.discard(record.mission_id)
-        await self.store.save(record)
 
     async def add(self, record: MissionRecord) -> MissionRecord:
         if record.mission_id in self.missions:
@@ -351,8 +360,21 @@ class MissionPlanner:
             self._dirty.add(record.mission_id)
 
     async def _flush_paths(self) -> None:
+        """Every 2 s, write the records changed since (paths, timelines) or not written when
+        they changed (a full disk). A mission a write failed for is settled once written (or
+        its log written, if it ended meanwhile): chaos seed 320, the disk full as the last leg
+        ended, left the mission running for ever."""
         while True:
             await asyncio.sleep(2.0)
             for mission_id in list(self._dirty):
+                record = self.missions[mission_id]
                 with contextlib.suppress(Exception):
-                    await self.save(self.missions[mission_id])
+                    await self.save(record)
+                    if mission_id not in self._unwritten:
+                        continue
+                    if record.terminal:  # it ended while it could not be written: its log too
+                        await self.store.save_log(mission_id, build_log(record))
+                    else:
+                        async with self.lock:
+                            await self.settle_locked(record)
+                    self._unwritten.discard(mission_id)

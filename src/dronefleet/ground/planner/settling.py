@@ -112,7 +112,10 @@ async def finish(
     record.state = state
     record.ended_at = timestamp_s()
     record.error = error
-    await planner.save(record)
-    await planner.store.save_log(record.mission_id, build_log(record))
+    try:
+        await planner.save(record)
+        await planner.store.save_log(record.mission_id, build_log(record))
+    except Exception as exc:  # a full disk: the record is written by the planner's flusher
+        log.warning("mission %s %s, not written yet: %s", record.mission_id, state.value, exc)
     planner.emit("mission", **record.summary())
     log.info("mission %s %s", record.mission_id, state.value)
