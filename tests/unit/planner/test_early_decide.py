@@ -1,0 +1,91 @@
+"""When early replacement launches the relief (issue 28, item 5), as the planning worker decides
+it (``early.decide``), on ArduPilot SITL's figures.
+
+Before: the decision flew the dissertation quad (18 A) whatever the vehicle, counted the tired
+drone's way home as work left, and ignored its own delay; on SITL the relief left only once the
+tired copter could keep nothing, 23 vehicle s of gap.
+"""
+
+from __future__ import annotations
+
+from dronefleet.geo.ned import ned_to_lla
+from dronefleet.geo.types import LLA, NED
+from dronefleet.ground.planner.early import Decision, decide, leaving_steps
+from dronefleet.ground.planner.estimate import estimate
+from dronefleet.ground.planner.fleet_view import DroneView
+
+from .test_returns import HOME, SITL_FLIGHT
+
+TIRED = {**SITL_FLIGHT, "flight_current_a": 30.0}  # measured in flight, as SITL's copter draws
+ALT_M = 20.0
+
+
+def row(n: int) -> list[dict]:
+    """``n`` waypoints 100 m apart going north, 30 m from home."""
+    steps: list[dict] = []
+    for i in range(n):
+        p = ned_to_lla(NED(30 + 100 * i, 0), HOME)
+        steps += [
+            {"command": "navigate", "lat": p.lat, "lon": p.lon, "altitude_delta": ALT_M},
+            {"command": "wait_for_flight"},
+        ]
+    return steps
+
+
+def relief() -> DroneView:
+    near = ned_to_lla(NED(0, 30), HOME)
+    home = LLA(near.lat, near.lon, HOME.alt_m)
+    return DroneView("FRESH", True, "disarmed", None, home, home, 100.0, flight=dict(SITL_FLIGHT))
+
+
+def ask(battery: float, *, flight: dict | None = TIRED, delay_s: float = 0.0, n: int = 12):
+    work = row(n)
+    here = ned_to_lla(NED(30, 0, -ALT_M), HOME)  # over the first waypoint
+    return decide(
+        work, list(range(len(work))), LLA(here.lat, here.lon, HOME.alt_m + ALT_M), HOME,
+        battery, 20.0, [relief()], {"TIRED"}, "ours", leaving_steps("rtl"), None, flight,
+        delay_s,
+    )  # fmt: skip
+
+
+def first_launch(**kwargs) -> tuple[float, Decision]:
+    """The highest battery (in 0.5 % steps down from 100) at which the relief is launched."""
+    battery = 100.0
+    while battery > 20:
+        answer = ask(battery, **kwargs)
+        if isinstance(answer, Decision):
+            return battery, answer
+        battery -= 0.5
+    raise AssertionError("never launched")
+
+
+def test_the_tired_drone_is_estimated_as_its_own_vehicle_flies():
+    own, _ = first_launch()
+    quad, _ = first_launch(flight=None)  # no figures: the dissertation quad's 18 A
+    assert own > quad + 5, (own, quad)  # at 30 A the battery runs out sooner: launched sooner
+
+
+def test_the_relief_arrives_before_the_tired_drone_leaves_and_not_long_before():
+    battery, decision = first_launch()
+    way_home = estimate(
+        [*leaving_steps("rtl")], start=HOME, home=HOME, airborne=True, battery_pct=battery
+    ).duration_s
+    # t_old is the work it keeps, not its way home after it.
+    kept = estimate(
+        row(12)[: len(decision.kept)],
+        start=ned_to_lla(NED(30, 0, -ALT_M), HOME),
+        home=HOME,
+        airborne=True,
+        battery_pct=battery,
+    )
+    assert decision.t_old < kept.duration_s + way_home
+    assert decision.keep >= 1
+    early_by = decision.t_old - decision.t_new
+    assert 0 < early_by <= 8.0 + 25.0  # the margin, plus one waypoint's leg at most
+
+
+def test_a_slow_check_launches_the_relief_sooner():
+    quick, _ = first_launch()
+    slow, decision = first_launch(delay_s=20.0)
+    assert slow > quick, (slow, quick)  # launched with more battery left: earlier
+    assert decision.t_old - decision.t_new > 20.0
