@@ -134,14 +134,14 @@ def test_an_onboard_mission_flies_in_mission_mode(ground, fly):
     down_at_home(ground, "PX4_1", home)
 
 
-def test_another_stations_hold_pauses_the_mission_and_resume_flies_the_rest(ground, fly):
-    vehicle = fly("PX4_1")
-    home = home_of(ground.drone("PX4_1"))
+def taken_over(ground, vehicle, home: LLA, main: int, sub: int, **options) -> str:
+    """A step mission started on PX4_1, then another station sets PX4 mode ``main``/``sub``
+    once it is on its way; the mission's id, once the ground has paused it."""
     spec = {
         "name": "taken over on PX4",
         "drones": ["PX4_1"],
         "steps": step_mission(home, [(60, 0), (60, 40)]),
-        "options": {"onboard": True},
+        **({"options": options} if options else {}),
     }
     created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
     assert created.status_code == 201, created.text
@@ -149,7 +149,7 @@ def test_another_stations_hold_pauses_the_mission_and_resume_flies_the_rest(grou
     until(ground, "PX4_1", lambda d: away_m(d, home) > 20, 60, "on its way")
     other = OtherStation(vehicle)
     try:
-        other.set_mode(4, 3)  # AUTO.LOITER, as QGroundControl's Hold
+        other.set_mode(main, sub)
     finally:
         other.close()
     deadline = time.monotonic() + 20
@@ -160,7 +160,16 @@ def test_another_stations_hold_pauses_the_mission_and_resume_flies_the_rest(grou
             break
         time.sleep(0.5)
     assert mission["state"] == "paused", mission
-    assert "taken over" in mission["error"] and "AUTO.LOITER" in mission["error"]
+    assert "taken over" in mission["error"], mission["error"]
+    return mission_id
+
+
+def test_another_stations_hold_pauses_the_mission_and_resume_flies_the_rest(ground, fly):
+    vehicle = fly("PX4_1")
+    home = home_of(ground.drone("PX4_1"))
+    mission_id = taken_over(ground, vehicle, home, 4, 3, onboard=True)  # AUTO.LOITER: Hold
+    mission = ground.api("GET", f"/api/v1/missions/{mission_id}").json()
+    assert "AUTO.LOITER" in mission["error"], mission["error"]
     resumed = ground.api("POST", "/api/v1/drones/PX4_1/resume")
     assert resumed.status_code == 200, resumed.text
     mission = ground.wait_ended(mission_id, timeout_s=150)
@@ -193,29 +202,9 @@ def test_a_companion_flown_area_mission_completes_with_the_default_end(ground, f
 def test_another_stations_rtl_pauses_the_mission_and_brings_the_vehicle_home(ground, fly):
     vehicle = fly("PX4_1")
     home = home_of(ground.drone("PX4_1"))
-    spec = {
-        "name": "called home on PX4",
-        "drones": ["PX4_1"],
-        "steps": step_mission(home, [(60, 0), (60, 40)]),
-    }
-    created = ground.api("POST", "/api/v1/missions?start=true", json=spec)
-    assert created.status_code == 201, created.text
-    mission_id = created.json()["mission_id"]
-    until(ground, "PX4_1", lambda d: away_m(d, home) > 20, 60, "on its way")
-    other = OtherStation(vehicle)
-    try:
-        other.set_mode(4, 5)  # AUTO.RTL, as QGroundControl's Return
-    finally:
-        other.close()
-    deadline = time.monotonic() + 20
-    mission = {}
-    while time.monotonic() < deadline:
-        mission = ground.api("GET", f"/api/v1/missions/{mission_id}").json()
-        if mission["state"] == "paused":
-            break
-        time.sleep(0.5)
-    assert mission["state"] == "paused", mission
-    assert "taken over" in mission["error"] and "AUTO.RTL" in mission["error"], mission["error"]
+    mission_id = taken_over(ground, vehicle, home, 4, 5)  # AUTO.RTL: QGroundControl's Return
+    mission = ground.api("GET", f"/api/v1/missions/{mission_id}").json()
+    assert "AUTO.RTL" in mission["error"], mission["error"]
     down_at_home(ground, "PX4_1", home)  # the other station's RTL is flown, never undone
 
 
