@@ -41,10 +41,11 @@ def relief() -> DroneView:
 def ask(battery: float, *, flight: dict | None = TIRED, delay_s: float = 0.0, n: int = 12):
     work = row(n)
     here = ned_to_lla(NED(30, 0, -ALT_M), HOME)  # over the first waypoint
+    here = LLA(here.lat, here.lon, HOME.alt_m + ALT_M)
+    tired = DroneView("TIRED", True, "flying", "M", here, HOME, battery, flight=flight)
     return decide(
-        work, list(range(len(work))), LLA(here.lat, here.lon, HOME.alt_m + ALT_M), HOME,
-        battery, 20.0, [relief()], {"TIRED"}, "ours", leaving_steps("rtl"), None, flight,
-        delay_s,
+        work, list(range(len(work))), here, HOME, battery, 20.0, [relief()], {"TIRED"}, "ours",
+        leaving_steps("rtl"), tired, delay_s=delay_s,
     )  # fmt: skip
 
 

@@ -136,8 +136,9 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         # The way home counts against the battery it keeps; landing where it is, as the seed's
         # did, is left to the reserve (the experiments' figures stay the seed's).
         leaving_steps(record.options.end_action) if record.options.end_action == "rtl" else [],
-        Wind(drone.wind, record.options.wind_mps, record.options.wind_from_deg),
-        drone.flight,
+        drone,
+        record.options.wind_mps,
+        record.options.wind_from_deg,
         planner.check_delays.get(leg.leg_id, 0.0),
     )
     _note_delay(planner, leg, asked_at)
@@ -235,20 +236,6 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
 
 
 @dataclass(frozen=True)
-class Wind:
-    """The wind an in-flight decision is estimated in: the mission's (``mps`` from
-    ``from_deg``), else each drone's autopilot's estimate (``reported``: the tired drone's)."""
-
-    reported: dict[str, Any] | None = None
-    mps: float | None = None
-    from_deg: float = 0.0
-
-    def given(self, reported: dict[str, Any] | None) -> dict[str, Any]:
-        """Keyword arguments of estimate.drone_model for a drone that reports ``reported``."""
-        return {"reported_wind": reported, "wind_mps": self.mps, "wind_from_deg": self.from_deg}
-
-
-@dataclass(frozen=True)
 class Decision:
     """An early handover worked out by :func:`decide`."""
 
@@ -282,18 +269,26 @@ def decide(
     busy: set[str],
     strategy: str,
     way_out: list[dict[str, Any]],
-    wind: Wind | None = None,
-    flight: dict[str, Any] | None = None,
+    tired: DroneView | None = None,
+    wind_mps: float | None = None,
+    wind_from_deg: float = 0.0,
     delay_s: float = 0.0,
 ) -> Decision | str | None:
     """Whether to hand the rest of ``left`` over now: None (not yet, or no need), a reason why
-    nobody can, or the handover. Each drone is estimated as its own vehicle flies (``flight``:
-    the tired one's; estimate.drone_model), in ``wind``. A handover decided now reaches the
+    nobody can, or the handover. Each drone is estimated as its own vehicle flies (``tired``:
+    the drone that cannot finish; estimate.drone_model), in the mission's wind (``wind_mps``
+    from ``wind_from_deg``) or its autopilot's. A handover decided now reaches the
     drones ``delay_s`` later (what the checks took, :func:`_note_delay`). Runs in the planning
     worker (ground/planner/worker.py)."""
-    wind = wind or Wind()
-    draws = fleet_draws([flight, *(d.flight for d in fleet)])
-    model = drone_model(flight, draws, **wind.given(wind.reported))
+    draws = fleet_draws([tired.flight if tired else None, *(d.flight for d in fleet)])
+
+    def model_of(drone: DroneView | None) -> Any:
+        return drone_model(
+            drone.flight if drone else None, draws, reported_wind=drone.wind if drone else None,
+            wind_mps=wind_mps, wind_from_deg=wind_from_deg,
+        )  # fmt: skip
+
+    model = model_of(tired)
 
     def cost(indices: list[int], out: list[dict[str, Any]] | None = None) -> Any:
         """What it keeps, then its way ``out`` (``way_out``, by default)."""
@@ -321,7 +316,7 @@ def decide(
     altitude = mission_altitude(work)
     chosen, prefix = pick(
         reserve_pct, fleet, leave_at, [work[i] for i in rest], altitude, busy, strategy,
-        wind.mps, wind.from_deg,
+        wind_mps, wind_from_deg,
     )  # fmt: skip
     if chosen is None:
         return str(prefix) if keep == 0 else None
@@ -333,7 +328,7 @@ def decide(
         home=chosen.home,
         airborne=chosen.airborne,
         battery_pct=chosen.battery_pct,
-        model=drone_model(chosen.flight, draws, **wind.given(chosen.wind)),
+        model=model_of(chosen),
     ).duration_s
     # Not launched now, it would be at the next decision: after the next waypoint's report, or
     # after this check's delay if that is longer (a step reported meanwhile is checked at once
