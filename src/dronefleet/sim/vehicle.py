@@ -14,20 +14,17 @@ import math
 
 from dronefleet.geo.ned import LocalFrame
 from dronefleet.geo.types import LLA, NED
+from dronefleet.sim.attitude import attitude, track_yaw
 from dronefleet.sim.gps import GpsReceiver
 from dronefleet.sim.wind import CALM, Wind
 from dronefleet.vehicle.base import Attitude, BatteryState, FcError, FlightMode
 from dronefleet.vehicle.battery import Battery
-from dronefleet.vehicle.kinematics import GRAVITY_MPS2, FlightLimits, Kinematics
+from dronefleet.vehicle.kinematics import FlightLimits, Kinematics
 
 log = logging.getLogger(__name__)
 
 #: Lowest position target above home; below that, use land().
 MIN_TARGET_ALT_M = 0.5
-#: Tilt needed to hold airspeed against drag, per m/s of airspeed (≈20° at 10 m/s).
-_DRAG_ACCEL_PER_MPS = 0.36
-#: Below this ground speed the heading (yaw) is kept rather than taken from the track.
-_MIN_TRACK_SPEED_MPS = 0.5
 #: How close to its home a landed vehicle must stand to get its battery swapped (``recharge_s``).
 RECHARGE_RADIUS_M = 5.0
 _EPS_S = 1e-9
@@ -157,8 +154,7 @@ class SimVehicle:
         if self.recharge_s is not None:
             self._recharge()
         self.gps.update(self._t, k.n, k.e, k.d)
-        if k.vn * k.vn + k.ve * k.ve > _MIN_TRACK_SPEED_MPS * _MIN_TRACK_SPEED_MPS:
-            self._yaw_deg = math.degrees(math.atan2(k.ve, k.vn)) % 360.0
+        self._yaw_deg = track_yaw(k, self._yaw_deg)
 
     def _touchdown(self) -> None:
         self._velocity = None
@@ -465,21 +461,10 @@ class SimVehicle:
 
     @property
     def attitude(self) -> Attitude:
-        """Tilt a multirotor needs for its acceleration plus drag; yaw follows the track."""
-        k = self._kin
-        yaw = math.radians(self._yaw_deg)
-        if self._phase is not _Phase.FLYING and self._phase is not _Phase.LANDING:
-            return Attitude(0.0, 0.0, self._yaw_deg)
-        an = k.an + _DRAG_ACCEL_PER_MPS * (k.vn - self.wind.n_mps)
-        ae = k.ae + _DRAG_ACCEL_PER_MPS * (k.ve - self.wind.e_mps)
-        forward = an * math.cos(yaw) + ae * math.sin(yaw)
-        right = -an * math.sin(yaw) + ae * math.cos(yaw)
-        lift = GRAVITY_MPS2 - k.ad
-        return Attitude(
-            roll_deg=math.degrees(math.atan2(right, lift)),
-            pitch_deg=-math.degrees(math.atan2(forward, lift)),
-            yaw_deg=self._yaw_deg,
-        )
+        """Tilt a multirotor needs for its acceleration plus drag; yaw follows the track
+        (sim/attitude.py)."""
+        thrusting = self._phase is _Phase.FLYING or self._phase is _Phase.LANDING
+        return attitude(self._kin, self._yaw_deg, self.wind, thrusting)
 
     def __repr__(self) -> str:
         k = self._kin
