@@ -59,13 +59,21 @@ async def ground_clients(
     async with ground:
         viewer = await TokenBook(ground.state).issue("viewer", Role.VIEWER)
         # 30 s: the first plan starts the planning worker's process, slow on a loaded machine.
+        # Idle connections are let go after 1 s, before the ground closes them (its keep-alive
+        # is 2 s, ground/services.py; httpx keeps them 5 s): a request sent on a connection the
+        # server was closing failed with ReadError when the shared event loop stalled > 2 s.
+        limits = httpx.Limits(keepalive_expiry=1.0)
         op = httpx.AsyncClient(
             base_url=ground.http_url,
             headers={"Authorization": f"Bearer {ground.operator_token}"},
             timeout=30,
+            limits=limits,
         )
         view = httpx.AsyncClient(
-            base_url=ground.http_url, headers={"Authorization": f"Bearer {viewer}"}, timeout=30
+            base_url=ground.http_url,
+            headers={"Authorization": f"Bearer {viewer}"},
+            timeout=30,
+            limits=limits,
         )
         async with op, view:
             for _ in range(100):
