@@ -219,10 +219,14 @@ class StateStore:
 
     # -- tokens --------------------------------------------------------------------------------
     async def add_token(self, token_hash: str, name: str, role: str) -> None:
+        # An upsert, not a delete then insert: two grounds starting at once on one PostgreSQL
+        # state with the same --token both inserted it, and the second died on the primary key.
         await self.write(
-            ("DELETE FROM tokens WHERE name = ? OR token_hash = ?", (name, token_hash)),
+            ("DELETE FROM tokens WHERE name = ? AND token_hash <> ?", (name, token_hash)),
             (
-                "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?)",
+                "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?) "
+                "ON CONFLICT (token_hash) DO UPDATE SET name = excluded.name, "
+                "role = excluded.role",
                 (token_hash, name, role, timestamp_s()),
             ),
         )
