@@ -77,7 +77,6 @@ _M_PER_DEG = 111_320.0
 #: here); each send puts the wall time and the drone's vehicle time in their place.
 MARK_TIME, MARK_VEHICLE = 987654321.125, 123456.875
 MARKS = {b"987654321.125": 0, b"123456.875": 1}
-FIELDS = 16  # in each telemetry message, every one stored (one row each)
 # The shared counters of the fleet process: telemetry, heartbeats, skipped, gear answers.
 TELEMETRY, HEARTBEATS, SKIPPED, GEAR = range(4)
 
@@ -327,9 +326,11 @@ async def poll_drones(api: httpx.AsyncClient, hz: float, seen: Observed) -> None
 
 
 def rows_written(path: Path) -> int:
-    """Rows the store has written so far (never deleted here: the largest rowid)."""
+    """Points the store has written so far (a row each, never deleted here: the largest
+    rowid)."""
     with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
-        return int(db.execute("SELECT COALESCE(MAX(rowid), 0) FROM telemetry").fetchone()[0])
+        sql = "SELECT COALESCE(MAX(rowid), 0) FROM telemetry_points"
+        return int(db.execute(sql).fetchone()[0])
 
 
 def thread_cpu_s(pid: int, tid: int) -> float:
@@ -346,9 +347,9 @@ def run_queue_s(pid: int) -> float:
 
 
 def stored_points(path: Path) -> int:
-    """Telemetry points in the SQLite store: one ``lat`` row per message."""
+    """Telemetry points (messages) in the SQLite store, a row each."""
     with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
-        return int(db.execute("SELECT COUNT(*) FROM telemetry WHERE field = 'lat'").fetchone()[0])
+        return int(db.execute("SELECT COUNT(*) FROM telemetry_points").fetchone()[0])
 
 
 async def settled_points(path: Path, limit_s: float) -> tuple[int, float]:
@@ -514,7 +515,7 @@ async def window(
     row.ground_cpu_s = proc_cpu_s(ground.pid) - cpu0
     row.waited_s = run_queue_s(ground.pid) - waited0
     row.loop_cpu_s = thread_cpu_s(ground.pid, ground.pid) - loop0
-    row.stored_in_window = (await asyncio.to_thread(rows_written, store) - rows0) // FIELDS
+    row.stored_in_window = await asyncio.to_thread(rows_written, store) - rows0
     row.telemetry_sent = counters[TELEMETRY] - tele0
     row.heartbeats_sent = counters[HEARTBEATS] - beats0
     row.skipped = counters[SKIPPED] - skip0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import os
 
 import pytest
 from hypothesis import settings
@@ -15,6 +16,18 @@ from support.brokers import mosquitto
 # Wall time on these shared 2-core machines is noisy: no per-example deadlines anywhere.
 settings.register_profile("dronefleet", deadline=None)
 settings.load_profile("dronefleet")
+
+
+@pytest.fixture(autouse=True)
+def _umask_kept():
+    """Each test gets the umask it found back: a ``dronefleet ground``/``drone``/``demo`` run in
+    this process makes its files private (``owner_only.private_umask``), and a test that ran
+    one left every later test of its worker making 0700 folders (CI: the README's Mosquitto
+    could not enter its configuration folder)."""
+    umask = os.umask(0o022)
+    os.umask(umask)
+    yield
+    os.umask(umask)
 
 
 def pytest_asyncio_loop_factories(config, item):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import dataclasses
 import math
 import os
 import sqlite3
@@ -249,23 +248,6 @@ def _external_drones(broker: Any, names: list[str], state_dir: Path) -> list[str
     return lines
 
 
-def _drone_urls(broker: Any, ids: list[str]) -> list[Any]:
-    """Each drone's broker user and URL, with one reload of the broker's configuration for them
-    all: the NATS broker re-reads its users at each change, and 200 drones made 200 reloads,
-    each slower than the last (one took over its 5 s limit beside 130 connected drones)."""
-    from dronefleet.messaging.broker_users import BrokerRole
-
-    if not ids:
-        return []
-    passwords = [broker.users.add(drone_id, BrokerRole.DRONE) for drone_id in ids[:-1]]
-    last = broker.url_for(ids[-1], BrokerRole.DRONE)  # the reload, with every user above
-    others = [
-        dataclasses.replace(last, username=drone_id, password=password)
-        for drone_id, password in zip(ids[:-1], passwords, strict=True)
-    ]
-    return [*others, last]
-
-
 async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.cli.drone import DEFAULT_HOME, parse_lla
     from dronefleet.drone.config import DroneConfig
@@ -320,7 +302,11 @@ async def _demo(args: argparse.Namespace) -> int:
                 drones = [
                     (DroneConfig(drone_id=drone_id, log_dir=state_dir / "logs"), url, spot)
                     for drone_id, url, spot in zip(
-                        ids, _drone_urls(broker, ids), homes_around(home, args.drones), strict=True
+                        ids,
+                        # One reload of the broker's users for them all (NatsBroker.urls_for).
+                        broker.urls_for(ids, BrokerRole.DRONE),
+                        homes_around(home, args.drones),
+                        strict=True,
                     )
                 ]
                 # Started many at a time: each start waits for the broker's answers.

@@ -247,9 +247,21 @@ def post(demo, path: str, body: dict | None = None) -> int:
 
 
 def click_and_wait(page, button: str, done: str, timeout_ms: int = 30_000) -> None:
-    """Press `button`, then wait until `done` shows."""
+    """Press `button`, then wait until `done` shows; if it never does, fail with what the page
+    says instead (a refusal in the planner's estimate box, the status line)."""
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
     page.click(button)
-    page.wait_for_selector(done, timeout=timeout_ms)
+    try:
+        page.wait_for_selector(done, timeout=timeout_ms)
+    except PlaywrightTimeout:
+        said = {
+            sel: page.locator(sel).first.inner_text(timeout=1_000)
+            for sel in ("#plan-estimate", "#mission-status", "main")
+            if page.locator(sel).count()
+        }
+        why = f"{done} did not show {timeout_ms} ms after {button}: {said}"
+        raise AssertionError(why) from None
 
 
 def click_map(page, selector: str, offsets: list[tuple[int, int]]) -> None:

@@ -102,17 +102,30 @@ def read_jsonl(path: Path) -> list[dict[str, Any]]:
     return [orjson.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
-async def until_mid_leg(vehicle: Any, left_m: float = 15.0) -> None:
-    """Wait until a simulated vehicle is flying a leg with ``left_m`` or more to go and speed.
+async def until_mid_leg(vehicle: Any, left_m: float = 15.0, flown_m: float = 8.0) -> None:
+    """Wait until a simulated vehicle is flying a leg with ``left_m`` or more to go and speed,
+    having flown ``flown_m`` of it already.
 
     A pilot's switch taken while the drone is sending its next ``navigate`` races with it: the
     later of the two wins on the autopilot as on a real one, and a test that switched "after the
-    4th step" lost that race on a loaded host. Mid-leg, the drone only waits for the flight, so
-    the switch is the pilot's alone. Checked and switched with no await between (the simulator
-    runs on this event loop)."""
+    4th step" lost that race on a loaded host. Just after the target is set, the drone may still
+    be reading its autopilot's acknowledgement (UAVTalk: the Waypoint write's ACK, then, in the
+    same read, the FlightStatus the switch changed): the full suite on a loaded host lost that
+    race twice. ``flown_m`` into the leg (1-2 vehicle s), the drone only waits for the flight,
+    so the switch is the pilot's alone. Checked and switched with no await between (the
+    simulator runs on this event loop)."""
+    leg_target, leg_start = None, None
     while True:
         target = vehicle.target_ned
+        if target != leg_target:
+            leg_target, leg_start = target, vehicle.position_ned
         moving = vehicle.velocity_ned.horizontal_m > 1.0
-        if target is not None and moving and (target - vehicle.position_ned).horizontal_m >= left_m:
+        if (
+            target is not None
+            and leg_start is not None
+            and moving
+            and (vehicle.position_ned - leg_start).horizontal_m >= flown_m
+            and (target - vehicle.position_ned).horizontal_m >= left_m
+        ):
             return
         await asyncio.sleep(0.005)

@@ -7,6 +7,7 @@ QUAD_B waits to take over.
 from __future__ import annotations
 
 import asyncio
+from collections import Counter
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -96,3 +97,19 @@ async def fly_early_handover(h: Harness, options: MissionOptions) -> Any:
     record = await h.until_ended(record.mission_id, timeout_s=300)
     await h.settle(30.0)
     return record
+
+
+def flown_as_planned(detail: dict[str, Any]) -> None:
+    """A mission's REST detail: completed on its primary legs, nothing handed over, every
+    waypoint reported flown exactly once (the process tests' end-to-end check)."""
+    assert detail["state"] == "completed", (detail["state"], detail["error"])
+    assert not detail["handovers"] and not detail.get("takeovers_cancelled")
+    assert {leg["role"] for leg in detail["legs"]} == {"primary"}, detail["legs"]
+    assert all(leg["state"] == "completed" for leg in detail["legs"]), detail["legs"]
+    waypoints = Counter(
+        r["index"]
+        for leg in detail["legs"]
+        for r in leg["reports"]
+        if r.get("index") is not None and detail["work"][r["index"]]["command"] == "wait_for_flight"
+    )
+    assert len(waypoints) == detail["waypoints"] and set(waypoints.values()) == {1}, waypoints

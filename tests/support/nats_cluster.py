@@ -1,7 +1,9 @@
 """A 3-node NATS cluster for tests (issue 27): each node a ``nats-server`` process with the
 configuration the project generates (messaging/nats_config.py: cluster routes to the others, the
 MQTT streams replicated on ``stream_replicas`` nodes), on free loopback ports. Anonymous MQTT
-clients are allowed everything, as the ``embedded_broker`` fixture's."""
+clients are allowed everything, as the ``embedded_broker`` fixture's; ``users`` log in with their
+rights, over MQTT or over NATS's own client port (``node.nats_url``: the grounds' shared
+telemetry ingestion, ground/telemetry/shared_ingest.py)."""
 
 from __future__ import annotations
 
@@ -25,11 +27,16 @@ class ClusterNode:
     def __init__(self, folder: Path, name: str, mqtt_port: int, route_port: int) -> None:
         self.folder, self.name = folder, name
         self.mqtt_port, self.route_port = mqtt_port, route_port
+        self.nats_port = free_port()
         self.proc: subprocess.Popen[bytes] | None = None
 
     @property
     def url(self) -> BrokerUrl:
         return BrokerUrl("127.0.0.1", self.mqtt_port)
+
+    @property
+    def nats_url(self) -> str:
+        return f"nats://127.0.0.1:{self.nats_port}"
 
     def start(self) -> None:
         out = open(self.folder / "nats-server.log", "ab")  # noqa: SIM115 - the process's
@@ -71,7 +78,7 @@ def wait_sessions(node: ClusterNode, deadline: float) -> None:
 
 
 @contextlib.contextmanager
-def nats_cluster(nodes: int = 3) -> Iterator[list[ClusterNode]]:
+def nats_cluster(nodes: int = 3, users: BrokerUsers | None = None) -> Iterator[list[ClusterNode]]:
     root = Path(tempfile.mkdtemp(prefix="dronefleet-nats-cluster-"))
     route_ports = [free_port() for _ in range(nodes)]
     routes = tuple(f"nats-route://127.0.0.1:{p}" for p in route_ports)
@@ -89,9 +96,10 @@ def nats_cluster(nodes: int = 3) -> Iterator[list[ClusterNode]]:
             stream_replicas=min(3, nodes),
         )
         text = nats_config(
-            BrokerUsers(),
+            users if users is not None else BrokerUsers(),
             mqtt_host="127.0.0.1",
             mqtt_port=node.mqtt_port,
+            nats_port=node.nats_port,
             store_dir=str(folder / "jetstream"),
             anonymous=True,
             cluster=cluster,

@@ -27,6 +27,12 @@ from support.processes import dronefleet, process
 
 #: Vehicle seconds per wall second for SITL.
 SITL_SPEEDUP = 10
+#: ArduPilot counts FS_GCS_TIMEOUT (5 s by default) on its own clock: at 10x that is 0.5 wall s,
+#: and a drone process held up that long by a loaded CI host (two xdist workers, the fuzzer and
+#: the browser tests beside it) had its live copter switched to RTL by the GCS failsafe at
+#: take-off. Scaled by the speed-up, the timeout means in wall time what the default means on a
+#: real copter. The test of the failsafe itself (test_orphan_goes_home.py) asks for the default.
+SPED_UP_PARAMS = {"FS_GCS_TIMEOUT": 5.0 * SITL_SPEEDUP}
 #: SITL's EKF uses GPS after about 41 vehicle seconds; before that ArduPilot refuses to arm
 #: ("Need Position Estimate"), as a real copter just powered on would.
 EKF_READY_S = 45.0
@@ -157,11 +163,11 @@ def sitl_vehicle(
     """One SITL Copter on a free instance number, retried once if it exits at start;
     ``params`` are loaded as defaults after SITL's own; ``home``: lat, lon, metres above sea."""
     binary, parm = sitl_binary
+    params = {**SPED_UP_PARAMS, **(params or {})}
     vehicle = None
     for attempt in range(2):
-        vehicle = _start_sitl(
-            binary, parm, folder / f"try{attempt}", _free_instance(), params or {}, home
-        )
+        folder_n = folder / f"try{attempt}"
+        vehicle = _start_sitl(binary, parm, folder_n, _free_instance(), params, home)
         if vehicle.proc.poll() is None:
             break
     assert vehicle is not None

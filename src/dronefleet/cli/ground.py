@@ -34,6 +34,18 @@ def state_spec(text: str) -> str | Path:
     return text if text.startswith(("postgresql://", "postgres://")) else Path(text)
 
 
+def nats_address(text: str) -> str:
+    """``--share-ingestion``: ``nats://HOST:PORT[,HOST:PORT...]`` (checked, passed on as given)."""
+    from dronefleet.errors import InvalidInput
+    from dronefleet.ground.telemetry.shared_ingest import nats_servers
+
+    try:
+        nats_servers(text)
+    except InvalidInput as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def _host_port(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
     if not sep or not host or not port.isdigit():
@@ -120,6 +132,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--photo-dir",
         type=Path,
         help="where the drones' pictures are kept per mission (default: photos/ beside --state)",
+    )
+    g.add_argument(
+        "--share-ingestion",
+        type=nats_address,
+        metavar="NATS_URL",
+        help="store only this replica's share of the fleet's telemetry, taken in a NATS queue "
+        "group at NATS_URL (nats://HOST:4222[,HOST:PORT...]: the client port of the NATS server "
+        "or cluster whose MQTT listener --broker is, logged in as the --broker user), so each "
+        "message is stored by one replica; a broker that is not NATS is refused "
+        "(docs/deployment.md); default: store all of it",
     )
     add_trusted_proxy(g)
     g.set_defaults(func=run_ground)
@@ -229,6 +251,7 @@ async def _ground(args: argparse.Namespace) -> int:
         geocoder=args.geocoder,
         photo_dir=args.photo_dir,
         trusted_proxies=args.trusted_proxy,
+        share_ingestion=args.share_ingestion,
     )
     try:
         await services.start()

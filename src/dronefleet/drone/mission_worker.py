@@ -372,6 +372,7 @@ class MissionWorker:
             # than filling the outbox (tests/integration/test_flood.py).
             await self.client.publish(topic_name, progress, qos=QOS_COMMAND)
             return
+        await self.controller.status.tell_state()  # a landing is heard before its report
         # Never awaited: a broker outage must not stop the mission (drone/outbox.py).
         self.outbox.post(topic_name, progress)
 

@@ -171,6 +171,25 @@ class StatusStream:
             for waiter in (interval, changed):
                 waiter.cancel()
 
+    async def tell_state(self) -> None:
+        """A heartbeat now if the flight state or the mode differs from the last one's. Called
+        before each mission report: the report that a landing ended a leg follows the heartbeat
+        that says the drone is down and disarmed, on the same link, so the ground never shows a
+        mission completed by a drone it still believes armed (CI: a copter read ``armed`` right
+        after its mission completed, the heartbeat's wake-up one telemetry sample behind)."""
+        state = self.fc.state()
+        if self._told is None or (flight_state(state), str(state.mode)) == self._told:
+            return
+        try:
+            await self.controller.client.publish(
+                self.controller.topic(Channel.HEARTBEATS),
+                self.heartbeat(),
+                qos=QOS_STREAM,
+                disposable=True,
+            )
+        except Exception:
+            log.exception("%s: heartbeat failed", self.drone_id)
+
     def _note_state(self) -> None:
         """Wake the heartbeat loop when the flight state or the mode differs from the last beat."""
         if self._told is None:

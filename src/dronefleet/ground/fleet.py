@@ -22,7 +22,7 @@ import asyncio
 import statistics
 from collections import deque
 from enum import StrEnum
-from typing import Any
+from typing import Any, cast
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr
 
@@ -112,6 +112,11 @@ async def sleep_awake(duration_s: float, *, tick_s: float = 0.1) -> float:
     return monotonic() - started
 
 
+def _private(record: BaseModel) -> dict[str, Any]:
+    """``record``'s private attributes, read directly (see DroneRecord's)."""
+    return cast(dict[str, Any], record.__pydantic_private__)
+
+
 class DroneRecord(BaseModel):
     """One entry of the fleet: the last heartbeat, the gear, and when the drone was last heard."""
 
@@ -141,6 +146,9 @@ class DroneRecord(BaseModel):
     # The position its telemetry (5 Hz) last gave, newer than a heartbeat's (every 5 s): what
     # the API answers as ``position`` (issue 29: a drone reported 12 m up showed 6 m in REST).
     _tracked: tuple[float, dict[str, float]] | None = PrivateAttr(default=None)
+    # The hot paths (a telemetry message's track, the liveness walk, the fleet list) read and
+    # write these through :func:`_private`: pydantic finds a private attribute only after the
+    # normal lookup failed, 3.7 µs a read against 0.08 (issue 27, 1000 drones at 5 Hz).
 
     @classmethod
     def first(cls, hb: Heartbeat, now: float, awake_s: float = 0.0) -> DroneRecord:
@@ -217,7 +225,11 @@ class DroneRecord(BaseModel):
 
     def silent_s(self, awake_s: float) -> float:
         """Awake seconds since the drone was last heard (or since the ground started listening)."""
-        return max(0.0, awake_s - self._heard_awake_s)
+        return max(0.0, awake_s - _private(self)["_heard_awake_s"])
+
+    def due_at(self, min_lost_after_s: float = MIN_LOST_AFTER_S) -> float:
+        """The awake time at which the drone, unheard until then, is due to be lost."""
+        return _private(self)["_heard_awake_s"] + self.lost_after_s(min_lost_after_s)
 
     def due(self, awake_s: float, min_lost_after_s: float = MIN_LOST_AFTER_S) -> bool:
         """Whether the drone, not lost yet, has been silent long enough to be."""
@@ -232,12 +244,13 @@ class DroneRecord(BaseModel):
         """A telemetry message's position, if it has one (lat, lon and alt_m at least)."""
         if "lat" in fields and "lon" in fields and "alt_m" in fields:
             keys = ("lat", "lon", "alt_m", "relative_alt_m")
-            self._tracked = (vehicle_time_s, {k: fields[k] for k in keys if k in fields})
+            tracked = (vehicle_time_s, {k: fields[k] for k in keys if k in fields})
+            _private(self)["_tracked"] = tracked
 
     def position(self) -> Any:
         """The newest position: from telemetry when newer than the last heartbeat's."""
         beat = self.heartbeat.get("position")
-        tracked = self._tracked
+        tracked = _private(self)["_tracked"]
         if tracked is None or tracked[0] < self.heartbeat.get("vehicle_time_s", 0.0):
             return beat
         return {**(beat or {}), **tracked[1]}

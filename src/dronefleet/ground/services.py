@@ -49,6 +49,7 @@ from dronefleet.ground.separation_monitor import SeparationMonitor
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.state_pg import is_postgres_url, state_store
 from dronefleet.ground.telemetry.connector import TelemetryConnector
+from dronefleet.ground.telemetry.shared_ingest import SharedIngest, check_shareable
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
 from dronefleet.messaging.url import BrokerUrl
 
@@ -83,7 +84,12 @@ class GroundServices:
         geocoder: str | None = None,
         photo_dir: str | Path | None = None,
         trusted_proxies: Sequence[str] = (),
+        share_ingestion: str | None = None,
     ) -> None:
+        #: NATS's client address: store only this replica's share of the telemetry, taken in a
+        #: queue group (ground/telemetry/shared_ingest.py); None: store all the inbox reads.
+        self.share_ingestion = share_ingestion
+        self.shared_ingest: SharedIngest | None = None
         #: Reverse proxies whose ``X-Forwarded-For`` names the client (addresses or networks);
         #: none by default, so the header is ignored and the peer is the client (issue 25).
         self.trusted_proxies = list(trusted_proxies)
@@ -147,6 +153,8 @@ class GroundServices:
         return self
 
     async def _start(self) -> None:
+        if self.share_ingestion is not None:
+            check_shareable(self.broker_url)  # refused before anything starts
         suffix = secrets.token_hex(3)
         self.state = await state_store(self.state_path).open()
         self._started.append(self.state)
@@ -181,7 +189,11 @@ class GroundServices:
             inbox=inbox,
         )
         self.connector = TelemetryConnector(
-            url, self.telemetry, client_id=f"ground-telemetry-{suffix}", inbox=inbox
+            url,
+            self.telemetry,
+            client_id=f"ground-telemetry-{suffix}",
+            inbox=inbox,
+            from_inbox=self.share_ingestion is None,
         )
         self.gateway = DroneGateway(
             url,
@@ -199,6 +211,12 @@ class GroundServices:
         for service in services:
             await service.start()
             self._started.append(service)
+        if self.share_ingestion is not None:
+            self.shared_ingest = SharedIngest(
+                self.share_ingestion, url, take=self.connector.take, name=self.replica_id
+            )
+            await self.shared_ingest.start()
+            self._started.append(self.shared_ingest)
         self.photos = PhotoStore(self.photo_dir)
 
         ctx = ManagerContext(self.state, tokens, self.gateway, self.telemetry, self.hub)
@@ -292,6 +310,8 @@ class GroundServices:
         """Every broker message the ground services refused, by kind (issue 12)."""
         counts: dict[str, int] = self.inbox.dropped_counts() if self.inbox is not None else {}
         counts.update(self.planner.dropped if self.planner is not None else {})
+        shared = self.shared_ingest.dropped if self.shared_ingest is not None else {}
+        counts.update({f"shared ingestion: {why}": n for why, n in shared.items()})
         counted_by = (
             ("telemetry", self.connector),
             ("stream", self.hub),
@@ -323,12 +343,12 @@ class GroundServices:
         first_start = not await tokens.has_any()
         if self._given_token:
             self.operator_token = await tokens.issue("operator", Role.OPERATOR, self._given_token)
-        elif first_start:
-            self.operator_token = await tokens.issue("operator", Role.OPERATOR)
+        elif first_start:  # unless another ground on this state issued it meanwhile
+            self.operator_token = await tokens.issue_if_none("operator", Role.OPERATOR)
         if self._given_admin_token:
             self.admin_token = await tokens.issue("admin", Role.ADMIN, self._given_admin_token)
         elif first_start:
-            self.admin_token = await tokens.issue("admin", Role.ADMIN)
+            self.admin_token = await tokens.issue_if_none("admin", Role.ADMIN)
 
     async def _serve(self) -> None:
         # The socket is bound here, not by uvicorn, which logs a port in use and calls sys.exit:

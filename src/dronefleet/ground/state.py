@@ -219,17 +219,33 @@ class StateStore:
 
     # -- tokens --------------------------------------------------------------------------------
     async def add_token(self, token_hash: str, name: str, role: str) -> None:
-        # An upsert, not a delete then insert: two grounds starting at once on one PostgreSQL
-        # state with the same --token both inserted it, and the second died on the primary key.
+        """The token called ``name`` is now ``token_hash`` (an earlier one of that name goes).
+
+        One upsert on the name, not a delete then an insert: grounds starting at once on one
+        PostgreSQL state both inserted their token, and the second died on a unique key (the
+        same ``--token``: the primary key; each its own first-start admin token: the name)."""
         await self.write(
-            ("DELETE FROM tokens WHERE name = ? AND token_hash <> ?", (name, token_hash)),
+            ("DELETE FROM tokens WHERE token_hash = ? AND name <> ?", (token_hash, name)),
             (
                 "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?) "
-                "ON CONFLICT (token_hash) DO UPDATE SET name = excluded.name, "
-                "role = excluded.role",
+                "ON CONFLICT (name) DO UPDATE SET token_hash = excluded.token_hash, "
+                "role = excluded.role, created_at = excluded.created_at",
                 (token_hash, name, role, timestamp_s()),
             ),
         )
+
+    async def add_token_if_none(self, token_hash: str, name: str, role: str) -> bool:
+        """Add the token called ``name`` unless there is one; whether it was added (a ground's
+        first start issues its tokens so: of two starting at once, one issues them, and the
+        other does not show a token that the first then replaced)."""
+        (added,) = await self.write(
+            (
+                "INSERT INTO tokens (token_hash, name, role, created_at) VALUES (?, ?, ?, ?) "
+                "ON CONFLICT (name) DO NOTHING",
+                (token_hash, name, role, timestamp_s()),
+            ),
+        )
+        return added == 1
 
     async def find_token(self, token_hash: str) -> tuple[str, str] | None:
         rows = await self.rows("SELECT name, role FROM tokens WHERE token_hash = ?", (token_hash,))

@@ -12,6 +12,7 @@ the process goes is delivered again by the broker, which the handlers take as a 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 log = logging.getLogger(__name__)
@@ -20,11 +21,14 @@ log = logging.getLogger(__name__)
 class AckTicket:
     """One received message, acknowledged when its last handler is done with it."""
 
-    __slots__ = ("_paho", "mid", "pending", "qos")
+    __slots__ = ("_acked", "_paho", "mid", "pending", "qos")
 
-    def __init__(self, paho: Any, mid: int, qos: int, pending: int) -> None:
+    def __init__(
+        self, paho: Any, mid: int, qos: int, pending: int, acked: Callable[[], None] | None = None
+    ) -> None:
         self._paho = paho  # the connection it came on: after a reconnect it is not acked
         self.mid, self.qos, self.pending = mid, qos, pending
+        self._acked = acked  # told once the message is acknowledged (or given up)
         if pending <= 0:
             self._ack()
 
@@ -33,8 +37,15 @@ class AckTicket:
         if self.pending == 0:
             self._ack()
 
+    @property
+    def open(self) -> bool:
+        """Not acknowledged yet: some handler still has the message."""
+        return self.pending > 0
+
     def _ack(self) -> None:
         try:
             self._paho.ack(self.mid, self.qos)
         except Exception as exc:  # the link went: the broker will deliver it again
             log.debug("message %d not acknowledged: %s", self.mid, exc)
+        if self._acked is not None:
+            self._acked()

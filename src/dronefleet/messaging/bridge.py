@@ -71,6 +71,11 @@ def bridge_config(
     then ``local_users`` names the password and ACL files :func:`drone_broker_files` wrote, so
     that even on the drone nobody reaches its broker anonymously)."""
     check_drone_id(drone_id)
+    if "," in ground_host:
+        raise ValueError(
+            "a drone's bridge reaches one ground broker: give one node's HOST:PORT, "
+            "not a cluster's node list"
+        )
     _quote_free("ground host", ground_host)
     _quote_free("connection", connection)
     if not 0 < ground_port < 65536:

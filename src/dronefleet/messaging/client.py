@@ -47,6 +47,13 @@ class BrokerClient(Publishing):
         self._sync_lock = asyncio.Lock()
         #: A persistent session's messages that came before any subscription matched them.
         self._unclaimed: deque[tuple[str, bytes, int, int, Any]] = deque()
+        #: The QoS 1 messages of a persistent session still with a handler, by link and packet
+        #: id. NATS sends a message not acknowledged within its ack_wait (2 s) again on the same
+        #: link, with the same id: a copy of one still waiting here is not queued again. Queued,
+        #: a backlog over 2 s doubled every 2 s, the full queues dropped the originals (acking
+        #: them), and progress reports were lost (CI: a mission on a cluster under load).
+        self._held: dict[tuple[int, int], AckTicket] = {}
+        self.redelivered = 0  # such copies, not queued
 
     # -- lifecycle ---------------------------------------------------------------------------
     async def start(self, *, timeout_s: float | None = 10.0) -> BrokerClient:
@@ -133,6 +140,9 @@ class BrokerClient(Publishing):
                     del self._at_broker[pattern]
 
     # -- incoming messages -------------------------------------------------------------------
+    def _release(self, key: tuple[int, int]) -> None:
+        self._held.pop(key, None)
+
     def _dispatch(
         self, topic_name: str, payload: bytes, mid: int = 0, qos: int = 0, link: Any = None
     ) -> None:
@@ -147,6 +157,13 @@ class BrokerClient(Publishing):
             return
         ticket = None
         if self.persistent_session and qos > 0 and link is not None:
-            ticket = AckTicket(link, mid, qos, pending=len(subs))
+            key = (id(link), mid)
+            held = self._held.get(key)
+            if held is not None and held.open:
+                self.redelivered += 1
+                return
+            ticket = AckTicket(link, mid, qos, pending=len(subs), acked=lambda: self._release(key))
+            if ticket.open:
+                self._held[key] = ticket
         for sub in subs:
             offer(sub, topic_name, payload, ticket, self.client_id)

@@ -12,7 +12,8 @@ import contextlib
 import logging
 import socket
 import ssl
-from typing import Any, TypedDict
+from collections.abc import Coroutine
+from typing import Any, TypedDict, TypeVar
 
 import aiomqtt
 
@@ -20,10 +21,13 @@ from dronefleet.errors import Unavailable
 from dronefleet.messaging.client_ids import unguessable_id
 from dronefleet.messaging.local_bus import LocalBus, LocalSession, SessionClosed
 from dronefleet.messaging.log_throttle import LogThrottle, ThrottleFilter
+from dronefleet.messaging.mqtt_link import closed_before_connack_fails, linked
 from dronefleet.messaging.mqtt_queue import dispatching_queue
-from dronefleet.messaging.url import BrokerUrl
+from dronefleet.messaging.node_turns import STABLE_LINK_S, NodeTurns
+from dronefleet.messaging.url import BrokerNode, BrokerUrl
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 _throttle = LogThrottle(log)
 _MQTT_LOG = logging.getLogger("dronefleet.mqtt")  # aiomqtt's, throttled
 _MQTT_LOG.addFilter(ThrottleFilter())
@@ -50,7 +54,9 @@ class LinkOptions(TypedDict, total=False):
 
 
 class Connection:
-    """The link to one MQTT broker (or local bus), made again whenever it is lost."""
+    """The link to one MQTT broker (or local bus), made again whenever it is lost: to the next
+    node of a cluster (``url.nodes``) in turn, with the same client id and session flag, so a
+    persistent session the cluster replicates is taken up again on another node."""
 
     def __init__(
         self,
@@ -77,6 +83,8 @@ class Connection:
         self._runner: asyncio.Task[None] | None = None
         self._stopping = False
         self.connections = 0  # how many times a connection was made (1 + reconnects)
+        self.node: BrokerNode | None = None  # the node of a cluster the link is to, while up
+        self._link_lost = asyncio.Event()  # set when the current link ends
 
     @property
     def connected(self) -> bool:
@@ -85,6 +93,23 @@ class Connection:
     async def wait_connected(self, timeout_s: float | None = None) -> None:
         async with asyncio.timeout(timeout_s):
             await self._connected.wait()
+
+    async def _on_link(self, operation: Coroutine[Any, Any, T]) -> T:
+        """``operation`` on the current link, ended by an MqttError if that link is lost first.
+        A QoS 1 publish waits for its PUBACK, which a killed node never sends: aiomqtt waited
+        its whole timeout (10 s) before the message was sent again through another node."""
+        lost = self._link_lost
+        task = asyncio.ensure_future(operation)
+        watch = asyncio.ensure_future(lost.wait())
+        try:
+            await asyncio.wait((task, watch), return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            watch.cancel()
+            if not task.done():
+                task.cancel()
+        if task.done() and not task.cancelled():
+            return task.result()
+        raise aiomqtt.MqttError("the link was lost before the broker answered")
 
     # -- what the client does with the link ----------------------------------------------------
     async def _link_up(self, client: Any) -> None:
@@ -102,11 +127,13 @@ class Connection:
         if self.url.local:
             await self._run_local()
             return
+        turns = NodeTurns(self.url.nodes, stable_s=max(self.reconnect_s, STABLE_LINK_S))
         while not self._stopping:
+            node = turns.next()
             try:
                 connection = aiomqtt.Client(
-                    self.url.host,
-                    self.url.port,
+                    node.host,
+                    node.port,
                     username=self.url.username,
                     password=self.url.password,
                     identifier=self.client_id,
@@ -120,24 +147,36 @@ class Connection:
                 connection._client.manual_ack_set(self.persistent_session)
                 # Set before connecting: a resumed session's messages come with the CONNACK.
                 self._paho = connection._client
-                async with connection as client:
+                closed_before_connack_fails(connection)
+                async with linked(connection, turns.connack_s()) as client:
                     self._client = client
+                    self._link_lost = asyncio.Event()
+                    self.node = node
+                    turns.up()
                     _no_delay(client)
                     await self._link_up(client)
                     self.connections += 1
                     self._connected.set()
-                    log.debug("%s connected to %s", self.client_id, self.url)
+                    log.log(
+                        logging.INFO if self.connections > 1 else logging.DEBUG,
+                        "%s connected to %s (node %s)", self.client_id, self.url, node,
+                    )  # fmt: skip
                     async for _ in client.messages:  # never yields (see mqtt_queue.py): it
                         pass  # ends, raising MqttError, when the link is lost
             except aiomqtt.MqttError as exc:
                 if not self._stopping:
                     log.info(
-                        "%s: broker %s link lost (%s); retrying", self.client_id, self.url, exc
-                    )
+                        "%s: broker %s, node %s: %s %s; trying node %s",
+                        self.client_id, self.url, node,
+                        "link lost" if self.node == node else "no link", exc, turns.peek(),
+                    )  # fmt: skip
             finally:
                 self._connected.clear()
                 self._client = None
-            if not self._stopping:
+                self.node = None
+                self._link_lost.set()
+                turns.down()
+            if not self._stopping and turns.pause_due():
                 await asyncio.sleep(self.reconnect_s)
 
     async def _run_local(self) -> None:

@@ -34,7 +34,7 @@ import asyncio
 import itertools
 import secrets
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from paho.mqtt.client import topic_matches_sub
@@ -219,6 +219,10 @@ class LocalBus:
         """A new user ``name`` (fresh password) and the URL it connects with."""
         password = self.users.add(name, role)
         return BrokerUrl(self.name, 0, username=name, password=password, local=True)
+
+    def urls_for(self, names: Sequence[str], role: BrokerRole) -> list[BrokerUrl]:
+        """:meth:`url_for` for each of ``names`` (as the NATS broker's, which reloads once)."""
+        return [self.url_for(name, role) for name in names]
 
     async def start(self) -> LocalBus:
         _buses[self.name] = self

@@ -32,7 +32,7 @@ import tempfile
 import threading
 import time
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from dronefleet.errors import Unavailable
@@ -192,10 +192,15 @@ class NatsBroker:
         *,
         users: BrokerUsers | None = None,
         anonymous: bool = False,
+        nats_port: int | None = None,
     ) -> None:
         self.host = host
         self._port_given = port is not None
         self.port = port or free_port(host)
+        #: NATS's own client port, beside MQTT, for the same users: the ground replicas' shared
+        #: telemetry ingestion takes a queue group there (ground/telemetry/shared_ingest.py).
+        self._nats_port_given = nats_port is not None
+        self.nats_port = nats_port or free_port(host)
         self.users = users if users is not None else BrokerUsers()
         self.anonymous = anonymous
         self.started_in_s: float | None = None  # how long the last start() took
@@ -208,6 +213,11 @@ class NatsBroker:
     def url(self) -> BrokerUrl:
         """The address, without credentials (an anonymous broker needs none)."""
         return BrokerUrl(self.host, self.port)
+
+    @property
+    def nats_url(self) -> str:
+        """NATS's client address, ``nats://host:port`` (no credentials)."""
+        return f"nats://{self.host}:{self.nats_port}"
 
     @property
     def pid(self) -> int | None:
@@ -227,10 +237,21 @@ class NatsBroker:
         """A new user ``name`` (fresh password) and the URL it connects with. On a running
         broker the server reloads its configuration first (a few ms; blocks up to
         :data:`RELOAD_TIMEOUT_S`): :meth:`add_user` does the same without blocking the loop."""
-        password = self.users.add(name, role)
-        if self._proc is not None:
+        (url,) = self.urls_for([name], role)
+        return url
+
+    def urls_for(self, names: Sequence[str], role: BrokerRole) -> list[BrokerUrl]:
+        """:meth:`url_for` for many users, with one reload for them all (the server re-reads
+        every user at each: 200 drones made one by one took 200 reloads, each slower than the
+        last) and their hashes made on a few threads (:meth:`BrokerUsers.add_many`). Blocks
+        like :meth:`url_for`; from a loop, run it in a thread."""
+        passwords = self.users.add_many(names, role)
+        if self._proc is not None and names:
             self.reload()
-        return BrokerUrl(self.host, self.port, username=name, password=password)
+        return [
+            BrokerUrl(self.host, self.port, username=name, password=password)
+            for name, password in zip(names, passwords, strict=True)
+        ]
 
     async def add_user(self, name: str, role: BrokerRole) -> BrokerUrl:
         """:meth:`url_for`, waiting for the reload off the event loop."""
@@ -280,6 +301,8 @@ class NatsBroker:
             mqtt_port=self.port,
             store_dir=str(folder / "jetstream"),
             anonymous=self.anonymous,
+            nats_port=self.nats_port,
+            consumer_memory=True,  # its store is temporary: see nats_config()
         )
         _write_private(folder / "nats.conf", text)
 
@@ -295,9 +318,13 @@ class NatsBroker:
                 break
             except NatsServerError as exc:
                 # Our port drawn at random was taken in the meantime: draw another.
-                if self._port_given or "address already in use" not in str(exc) or attempt == 2:
+                given = self._port_given and self._nats_port_given
+                if given or "address already in use" not in str(exc) or attempt == 2:
                     raise
-                self.port = free_port(self.host)
+                if not self._port_given:
+                    self.port = free_port(self.host)
+                if not self._nats_port_given:
+                    self.nats_port = free_port(self.host)
         self.started_in_s = time.perf_counter() - began
         log.debug("nats-server %s on %s in %.0f ms", self.pid, self.url, self.started_in_s * 1e3)
         return self

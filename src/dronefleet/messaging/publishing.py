@@ -61,7 +61,11 @@ class Publishing(Connection):
             client = self._client
             if client is not None and self.connected:
                 try:
-                    await client.publish(topic_name, payload, qos=qos, retain=retain)
+                    sending = client.publish(topic_name, payload, qos=qos, retain=retain)
+                    if qos > 0 and type(client) is aiomqtt.Client:
+                        await self._on_link(sending)  # not waiting out a lost link's PUBACK
+                    else:
+                        await sending
                     _keep_cancellation()
                     return True
                 except (aiomqtt.MqttError, SessionClosed) as exc:

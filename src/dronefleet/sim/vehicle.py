@@ -4,11 +4,11 @@ does in the air, close enough that missions take the time they would take outsid
 Commands are synchronous and vehicle-level (NED targets relative to home); refusals raise
 :class:`VehicleError` with the reason. Time only moves in :meth:`SimVehicle.step`, normally called
 by :class:`~dronefleet.sim.world.SimWorld` for all vehicles at once, or directly by unit tests.
+The commands and the flight phase are in sim/vehicle_commands.py.
 """
 
 from __future__ import annotations
 
-import enum
 import logging
 import math
 
@@ -16,32 +16,27 @@ from dronefleet.geo.ned import LocalFrame
 from dronefleet.geo.types import LLA, NED
 from dronefleet.sim.attitude import attitude, track_yaw
 from dronefleet.sim.gps import GpsReceiver
+from dronefleet.sim.vehicle_commands import (
+    MIN_TARGET_ALT_M,
+    FlightPhase,
+    VehicleCommands,
+    VehicleError,
+)
 from dronefleet.sim.wind import CALM, Wind
-from dronefleet.vehicle.base import Attitude, BatteryState, FcError, FlightMode
+from dronefleet.vehicle.base import Attitude, BatteryState, FlightMode
 from dronefleet.vehicle.battery import Battery
 from dronefleet.vehicle.kinematics import FlightLimits, Kinematics
 
 log = logging.getLogger(__name__)
 
-#: Lowest position target above home; below that, use land().
-MIN_TARGET_ALT_M = 0.5
+__all__ = ["MIN_TARGET_ALT_M", "RECHARGE_RADIUS_M", "SimVehicle", "VehicleError"]
+
 #: How close to its home a landed vehicle must stand to get its battery swapped (``recharge_s``).
 RECHARGE_RADIUS_M = 5.0
 _EPS_S = 1e-9
 
 
-class VehicleError(FcError):
-    """A command the simulated vehicle refused; the message says why and what to do."""
-
-
-class _Phase(enum.Enum):
-    GROUND = "ground"
-    FLYING = "flying"  # motors on, following a position target
-    LANDING = "landing"
-    FALLING = "falling"  # motors off in the air
-
-
-class SimVehicle:
+class SimVehicle(VehicleCommands):
     """A quadcopter with the seed's limits, a 4S LiPo, a 5 Hz GPS, flying in (optional) wind."""
 
     def __init__(
@@ -95,7 +90,7 @@ class SimVehicle:
         self.wind = wind or CALM
         self._t = start_time_s
         self._kin = Kinematics()
-        self._phase = _Phase.GROUND
+        self._phase = FlightPhase.GROUND
         self._target: tuple[float, float, float] | None = None
         # A velocity target (north, east, down m/s) and until when it holds (vehicle s).
         self._velocity: tuple[float, float, float, float] | None = None
@@ -122,7 +117,7 @@ class SimVehicle:
             self._armed = True
             log.info("%s: armed", self.vehicle_id)
         k, wind, phase = self._kin, self.wind, self._phase
-        if phase is _Phase.FLYING and self._velocity is not None:
+        if phase is FlightPhase.FLYING and self._velocity is not None:
             *want, until = self._velocity
             if self._t >= until - _EPS_S:  # no new target in time: brake and hold there
                 self._velocity, self._target = None, k.stop_point(self.limits)
@@ -132,18 +127,18 @@ class SimVehicle:
                 self._target = (k.n, k.e, k.d)
             airspeed = math.hypot(k.vn - wind.n_mps, k.ve - wind.e_mps)
             current = self.battery.flight_current_a(airspeed, -k.vd, self.limits.max_speed_mps)
-        elif phase is _Phase.FLYING or phase is _Phase.LANDING:
+        elif phase is FlightPhase.FLYING or phase is FlightPhase.LANDING:
             tn, te, td = self._target  # type: ignore[misc]
             k.fly_to(tn, te, td, dt_s, self.limits, wind.n_mps, wind.e_mps)
             airspeed = math.hypot(k.vn - wind.n_mps, k.ve - wind.e_mps)
             current = self.battery.flight_current_a(airspeed, -k.vd, self.limits.max_speed_mps)
-            if phase is _Phase.LANDING and k.d >= 0.0:
+            if phase is FlightPhase.LANDING and k.d >= 0.0:
                 self._touchdown()
-        elif phase is _Phase.FALLING:
+        elif phase is FlightPhase.FALLING:
             k.fall(dt_s, wind.n_mps, wind.e_mps)
             current = self.battery.idle_current_a
             if k.d >= 0.0:
-                self._phase = _Phase.GROUND
+                self._phase = FlightPhase.GROUND
                 log.warning("%s: hit the ground with the motors off", self.vehicle_id)
         else:
             current = (
@@ -159,7 +154,7 @@ class SimVehicle:
     def _touchdown(self) -> None:
         self._velocity = None
         self._kin.rest_on_ground()
-        self._phase = _Phase.GROUND
+        self._phase = FlightPhase.GROUND
         self._target = None
         if self.disarm_on_touchdown:
             self._armed = False
@@ -170,7 +165,7 @@ class SimVehicle:
         disarmed (a person on the field swaps packs; the timer starts again after each swap)."""
         k = self._kin
         parked = (
-            self._phase is _Phase.GROUND
+            self._phase is FlightPhase.GROUND
             and not self._armed
             and self._arming_since is None
             and k.n * k.n + k.e * k.e <= RECHARGE_RADIUS_M * RECHARGE_RADIUS_M
@@ -190,169 +185,16 @@ class SimVehicle:
 
     def _check_battery(self) -> None:
         pct = self.battery.remaining_pct
-        if pct <= 0.0 and self._phase in (_Phase.FLYING, _Phase.LANDING):
+        if pct <= 0.0 and self._phase in (FlightPhase.FLYING, FlightPhase.LANDING):
             log.error("%s: battery empty in the air, motors stop", self.vehicle_id)
             self._motors_off()
         elif pct <= self.failsafe_pct and not self._failsafe and (self._armed or self.in_air):
             self._failsafe = True
             log.warning("%s: battery failsafe at %.1f %%, landing", self.vehicle_id, pct)
-            if self._phase is _Phase.FLYING:
+            if self._phase is FlightPhase.FLYING:
                 self._begin_landing()
-            elif self._phase is _Phase.GROUND:
+            elif self._phase is FlightPhase.GROUND:
                 self._armed = False
-
-    # -- commands -----------------------------------------------------------------------------
-    def arm(self, *, at_once: bool = False) -> None:
-        """Start arming; the vehicle is armed ``arming_s`` (3 s) later, or now with ``at_once``
-        (an ArduPilot autopilot arms before it acknowledges the command)."""
-        self._refuse_if_rebooting()
-        if self._armed:
-            raise VehicleError(f"{self.vehicle_id}: already armed")
-        if self._arming_since is not None:
-            raise VehicleError(f"{self.vehicle_id}: arming already in progress")
-        if self._phase is not _Phase.GROUND:
-            raise VehicleError(f"{self.vehicle_id}: cannot arm in the air")
-        pct = self.battery.remaining_pct
-        if pct <= self.failsafe_pct:
-            raise VehicleError(
-                f"{self.vehicle_id}: battery at {pct:.1f} % (failsafe at {self.failsafe_pct:g} %);"
-                " charge or swap it before arming"
-            )
-        self._arming_since = self._t
-        if at_once or self.arming_s <= 0:
-            self._arming_since, self._armed = None, True
-
-    def disarm(self, force: bool = False) -> None:
-        """Disarm on the ground; in the air only with ``force`` (the motors stop, it falls)."""
-        self._arming_since = None
-        if not self._armed:
-            return
-        if self._phase in (_Phase.FLYING, _Phase.LANDING):
-            if not force:
-                raise VehicleError(
-                    f"{self.vehicle_id}: in the air at {self.relative_alt_m:.1f} m; land first,"
-                    " or force the disarm (the drone will fall)"
-                )
-            log.warning("%s: forced disarm in the air", self.vehicle_id)
-            self._motors_off()
-            return
-        self._armed = False
-        self._mode = FlightMode.STABILIZE
-
-    def takeoff(self, altitude_m: float) -> None:
-        """Climb vertically to ``altitude_m`` above home (in the air: change altitude here)."""
-        self._refuse_unless_can_fly()
-        self._check_altitude(altitude_m)
-        k = self._kin
-        if self._phase is _Phase.GROUND:
-            self._target = (k.n, k.e, -altitude_m)
-        else:
-            sn, se, _ = k.stop_point(self.limits)
-            self._target = (sn, se, -altitude_m)
-        self._fly(FlightMode.GUIDED)
-
-    def goto(self, target: NED) -> None:
-        """Fly to ``target`` (home NED); from the ground (armed) it takes off towards it."""
-        self._refuse_unless_can_fly()
-        self._check_altitude(-target.d)
-        self._target = (target.n, target.e, target.d)
-        self._fly(FlightMode.GUIDED)
-
-    def idle_on_ground(self) -> None:
-        """Cut the climb of a take-off that has not left the ground: armed, motors idle, down.
-
-        What ArduPilot Copter does when its GUIDED take-off is replaced by a waypoint before the
-        vehicle has lifted off (see :meth:`dronefleet.sim.mavlink.copter.SimCopter.guided_target`).
-        """
-        if self._phase is not _Phase.FLYING:
-            return
-        self._kin.rest_on_ground()
-        self._phase = _Phase.GROUND
-        self._target = None
-
-    def hold(self) -> None:
-        """Brake and hold the position where the vehicle comes to rest."""
-        if self._phase is _Phase.GROUND:
-            return
-        self._refuse_unless_can_fly()
-        self._target = self._kin.stop_point(self.limits)
-        self._fly(FlightMode.HOLD)
-
-    def land(self) -> None:
-        """Brake and descend vertically to the ground; disarms on touchdown."""
-        if self._phase is _Phase.FALLING:
-            raise VehicleError(f"{self.vehicle_id}: motors are off, it is falling")
-        if self._phase is _Phase.GROUND:  # already down: just make it safe
-            self.disarm()
-            return
-        if self._phase is _Phase.FLYING:
-            self._begin_landing()
-
-    def reboot(self, force: bool = False) -> None:
-        """Restart the autopilot (``reboot_s``); in the air only with ``force`` (it falls)."""
-        if self.in_air and self._phase is not _Phase.FALLING:
-            if not force:
-                raise VehicleError(f"{self.vehicle_id}: refusing to reboot in the air; land first")
-            self._motors_off()
-        self._armed, self._arming_since = False, None
-        self._mode = FlightMode.STABILIZE
-        self._reboot_until = self._t + self.reboot_s
-        log.info("%s: rebooting", self.vehicle_id)
-
-    def _fly(self, mode: FlightMode) -> None:
-        self._phase = _Phase.FLYING
-        self._mode = mode
-        self._velocity = None  # any new target replaces a velocity target
-
-    def fly_velocity(self, velocity: NED, for_s: float) -> None:
-        """Fly at ``velocity`` (north, east, down m/s) for ``for_s`` vehicle seconds, then brake
-        and hold where it stops, unless a new target comes (ArduPilot's GUID_TIMEOUT)."""
-        if self._phase is not _Phase.FLYING:
-            raise VehicleError(f"{self.vehicle_id}: a velocity target needs the vehicle flying")
-        self._refuse_unless_can_fly()
-        self._fly(FlightMode.GUIDED)
-        self._velocity = (velocity.n, velocity.e, velocity.d, self._t + for_s)
-
-    def _begin_landing(self) -> None:
-        self._velocity = None
-        sn, se, _ = self._kin.stop_point(self.limits)
-        self._target = (sn, se, 0.0)
-        self._phase = _Phase.LANDING
-        self._mode = FlightMode.LAND
-
-    def _motors_off(self) -> None:
-        self._velocity = None
-        self._armed, self._arming_since = False, None
-        self._target = None
-        self._phase = _Phase.FALLING
-        self._mode = FlightMode.STABILIZE
-
-    def _refuse_if_rebooting(self) -> None:
-        if self._reboot_until is not None:
-            left = self._reboot_until - self._t
-            raise VehicleError(f"{self.vehicle_id}: rebooting ({left:.1f} s left); try again then")
-
-    def _refuse_unless_can_fly(self) -> None:
-        self._refuse_if_rebooting()
-        if self._phase is _Phase.FALLING:
-            raise VehicleError(f"{self.vehicle_id}: motors are off, it is falling")
-        if not self._armed:
-            if self._arming_since is not None:
-                left = self.arming_s - (self._t - self._arming_since)
-                raise VehicleError(f"{self.vehicle_id}: still arming ({left:.1f} s left)")
-            raise VehicleError(f"{self.vehicle_id}: not armed; arm it first")
-        if self._failsafe and self._phase is _Phase.LANDING:
-            raise VehicleError(
-                f"{self.vehicle_id}: battery failsafe, landing"
-                f" (battery {self.battery.remaining_pct:.1f} %)"
-            )
-
-    def _check_altitude(self, altitude_m: float) -> None:
-        if not altitude_m >= MIN_TARGET_ALT_M:
-            raise VehicleError(
-                f"{self.vehicle_id}: target altitude {altitude_m:.1f} m above home is below the"
-                f" {MIN_TARGET_ALT_M} m minimum; use land() to go down"
-            )
 
     # -- state --------------------------------------------------------------------------------
     @property
@@ -416,7 +258,7 @@ class SimVehicle:
             "voltage_v": battery.voltage_v,
             "current_a": battery.current_a,
             "armed": float(self._armed),
-            "in_air": float(self._phase is not _Phase.GROUND),
+            "in_air": float(self._phase is not FlightPhase.GROUND),
         }
 
     @property
@@ -437,15 +279,15 @@ class SimVehicle:
 
     @property
     def in_air(self) -> bool:
-        return self._phase is not _Phase.GROUND
+        return self._phase is not FlightPhase.GROUND
 
     @property
     def landing(self) -> bool:
-        return self._phase is _Phase.LANDING
+        return self._phase is FlightPhase.LANDING
 
     @property
     def falling(self) -> bool:
-        return self._phase is _Phase.FALLING
+        return self._phase is FlightPhase.FALLING
 
     @property
     def battery_failsafe(self) -> bool:
@@ -463,7 +305,7 @@ class SimVehicle:
     def attitude(self) -> Attitude:
         """Tilt a multirotor needs for its acceleration plus drag; yaw follows the track
         (sim/attitude.py)."""
-        thrusting = self._phase is _Phase.FLYING or self._phase is _Phase.LANDING
+        thrusting = self._phase is FlightPhase.FLYING or self._phase is FlightPhase.LANDING
         return attitude(self._kin, self._yaw_deg, self.wind, thrusting)
 
     def __repr__(self) -> str:

@@ -51,8 +51,9 @@ async def test_an_rc_pilots_hold_pauses_the_mission_and_a_resume_finishes_it(emb
         assert paused["result"]["by"] == SOMEONE_ELSE and paused["result"]["mode"] == "HOLD"
         assert "taken over" in paused["error"]
         steps_then = len(events(op, "t1", "step"))
+        await fleet.clock.sleep(3.0)  # braking from cruise speed into the hold
         where = vehicle.position_ned
-        await fleet.clock.sleep(15.0)  # the vehicle is the pilot's: nothing flies it on
+        await fleet.clock.sleep(12.0)  # the vehicle is the pilot's: nothing flies it on
         assert len(events(op, "t1", "step")) == steps_then
         assert (vehicle.position_ned - where).horizontal_m < 2.0
         await op.send_mission("QUAD_T", mission_id="t1", action="resume", request_id="r-1")

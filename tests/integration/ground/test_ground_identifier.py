@@ -16,7 +16,7 @@ pytestmark = pytest.mark.integration
 def hb(drone_id="Q1", interval_s=5.0, vehicle_s=0.0, sent=100.0):
     return LenientHeartbeat.model_validate(
         {
-            **FakeDrone(("x", 1), drone_id).heartbeat(),
+            **FakeDrone("mqtt://x:1", drone_id).heartbeat(),
             "interval_s": interval_s,
             "vehicle_time_s": vehicle_s,
             "timestamp": sent,

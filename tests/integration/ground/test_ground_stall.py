@@ -20,7 +20,6 @@ import subprocess
 import sys
 import threading
 import time
-from collections import Counter
 from collections.abc import Iterator
 
 import httpx
@@ -30,6 +29,7 @@ from dronefleet.experiments import scenarios
 from dronefleet.messaging.embedded import free_port
 from support.brokers import mosquitto
 from support.ground_procs import ground_cmd, process, wait_http, wait_online
+from support.missions import flown_as_planned
 from support.processes import dronefleet
 
 pytestmark = pytest.mark.integration
@@ -149,15 +149,5 @@ def test_a_ground_stopped_30_s_answers_at_once_and_its_stall_costs_the_fleet_not
         api.close()
 
     assert answered_s < 2.0, f"REST answered {answered_s:.2f} s after SIGCONT"
-    assert detail["state"] == "completed", (detail["state"], detail["error"])
-    assert not detail["handovers"] and not detail.get("takeovers_cancelled")
-    assert {leg["role"] for leg in detail["legs"]} == {"primary"}  # nobody sent home, replaced
-    assert all(leg["state"] == "completed" for leg in detail["legs"]), detail["legs"]
-    waypoints = Counter(
-        r["index"]
-        for leg in detail["legs"]
-        for r in leg["reports"]
-        if r.get("index") is not None and detail["work"][r["index"]]["command"] == "wait_for_flight"
-    )
-    assert len(waypoints) == detail["waypoints"] and set(waypoints.values()) == {1}, waypoints
+    flown_as_planned(detail)
     assert all(seen <= {"online"} for seen in watch.seen.values()), watch.seen

@@ -9,6 +9,7 @@ import getpass
 import pytest
 
 from dronefleet.ground.broker_credentials import BrokerCredentials
+from dronefleet.ground.manager.auth import Role, TokenBook, hash_token
 from dronefleet.ground.manager.session import SessionBook
 from dronefleet.ground.planner.models import MissionRecord, MissionState
 from dronefleet.ground.planner.store import MissionStore
@@ -82,6 +83,30 @@ async def test_tokens(state):
     assert all(isinstance(t["created_at"], float) for t in listed)
     assert await state.delete_token("admin") is True
     assert await state.delete_token("admin") is False
+
+
+async def test_two_grounds_starting_at_once_issue_one_set_of_tokens(state_spec):
+    """Two grounds on one state, first start, at once: one issues the admin token (the other
+    shows none), and both setting the same name give one row, not a crash on a unique key (a
+    replica died so on PostgreSQL: tokens_name_key)."""
+    stores = [await state_store(state_spec).open() for _ in range(2)]
+    try:
+        for _ in range(5):
+            issued = await asyncio.gather(
+                *(TokenBook(store).issue_if_none("admin", Role.ADMIN) for store in stores)
+            )
+            (token,) = [t for t in issued if t is not None]
+            assert await stores[1].find_token(hash_token(token)) == ("admin", "admin")
+            await asyncio.gather(
+                stores[0].add_token("given-a", "operator", "operator"),
+                stores[1].add_token("given-b", "operator", "operator"),
+            )
+            kept = [await stores[0].find_token(h) for h in ("given-a", "given-b")]
+            assert sorted(map(str, kept)) == ["('operator', 'operator')", "None"], kept
+            assert await stores[0].delete_token("admin") is True
+    finally:
+        for store in stores:
+            await store.close()
 
 
 async def test_the_audit_log_pages_and_keeps_what_was_sent(state):

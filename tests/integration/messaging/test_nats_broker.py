@@ -16,6 +16,7 @@ import struct
 import sys
 import textwrap
 import time
+from dataclasses import replace
 
 import aiomqtt
 import pytest
@@ -104,6 +105,34 @@ async def test_ground_and_drones_talk_and_drones_keep_to_themselves():
                 assert await heard(quad2_heard, 0.3) == [("QUAD_2/control/in", b"takeoff")]
                 assert ("QUAD_1/control/in", b"land") in await heard(quad1_heard, 0.3)
     assert pid is not None and not alive(pid) and not broker.running
+
+
+async def test_many_drones_made_at_once_each_connect_as_themselves_alone():
+    """``urls_for``: one reload for them all, each URL its own user and password."""
+    async with NatsBroker() as broker:
+        ground_url = broker.url_for("ground", BrokerRole.GROUND)
+        urls = broker.urls_for([f"QUAD_{i}" for i in range(1, 6)], BrokerRole.DRONE)
+        assert [u.username for u in urls] == [f"QUAD_{i}" for i in range(1, 6)]
+        assert len({u.password for u in urls}) == 5
+        telemetry = asyncio.Queue()
+        async with BrokerClient(ground_url, "ground-test") as ground:
+            await ground.subscribe("+/telemetry/out", collect(telemetry), qos=0)
+            for url in urls:
+                async with BrokerClient(url, f"{url.username}-test") as drone:
+                    await drone.publish(f"{url.username}/telemetry/out", b"own", qos=0)
+                    await drone.publish("QUAD_9/telemetry/out", b"forged", qos=0)  # dropped
+            assert sorted(await heard(telemetry)) == [
+                (f"QUAD_{i}/telemetry/out", b"own") for i in range(1, 6)
+            ]
+        with pytest.raises(aiomqtt.MqttCodeError) as refused:  # another drone's password
+            async with aiomqtt.Client(
+                broker.host,
+                broker.port,
+                identifier="q1",
+                **creds(replace(urls[0], password=urls[1].password)),
+            ):
+                pass
+        assert refused.value.rc in (5, 135)
 
 
 async def test_subscriptions_outside_the_rules_are_refused():

@@ -28,7 +28,8 @@ def test_a_killed_drones_copter_returns_home_and_a_live_one_never_fails_safe(
     ground, sitl_binary, tmp_path
 ):
     with contextlib.ExitStack() as stack:
-        vehicle = stack.enter_context(sitl_vehicle(sitl_binary, tmp_path / "ORPH"))
+        default = {"FS_GCS_TIMEOUT": 5.0}  # ArduPilot's own, not the suite's scaled one
+        vehicle = stack.enter_context(sitl_vehicle(sitl_binary, tmp_path / "ORPH", default))
         cmd = dronefleet(
             "-v", "drone", "--id", "ORPH", "--broker", ground.broker, "--fc", "mavlink",
             "--fc-url", vehicle.url, "--heartbeat-s", "1",

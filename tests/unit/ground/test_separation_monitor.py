@@ -201,3 +201,23 @@ async def test_an_encounter_ends_when_the_pair_has_drifted_beyond_the_grid(monit
     clock.now += CLEAR_S + 0.1
     await feed(mon, "A", 0, 0, 10)
     assert mon.status().active == []
+
+
+async def test_a_crowd_on_the_ground_is_not_compared_and_a_landing_ends_its_encounter(
+    monitor,
+) -> None:
+    """Issue 27: a fleet waiting at its homes (36 drones a grid cube in bench/sim_scale.py) cost
+    every message a walk over all of them; only drones in the air are compared now."""
+    mon, sent, clock = monitor
+    for i in range(200):  # 200 drones on the ground, 1 m apart
+        await feed(mon, f"G{i}", float(i // 20), float(i % 20), 0, in_air=0.0)
+    assert mon._near("G0") == set() and mon.status().pairs_compared == 0
+    await feed(mon, "A", 5, 5, 10)  # in the air above them
+    await feed(mon, "B", 5, 8, 10)  # 3 m beside A
+    assert mon._near("A") == {"B"}
+    assert [a.level.value for a in sent] == ["CRITICAL"] and mon.status().active == ["A/B"]
+    await feed(mon, "B", 5, 8, 0, in_air=0.0)  # B lands: A is still compared with it, to end it
+    assert mon._near("B") == {"A"}
+    clock.now += CLEAR_S + 0.1
+    await feed(mon, "A", 5, 5, 10)
+    assert mon.status().active == [] and mon._near("A") == set()

@@ -12,6 +12,7 @@ from dronefleet.messaging.broker_users import (
     BrokerUser,
     BrokerUsers,
 )
+from dronefleet.messaging.nats_broker import NatsBroker
 from dronefleet.messaging.nats_config import (
     ANONYMOUS_USER,
     LOCKED_USER,
@@ -169,3 +170,18 @@ def test_a_cluster_node_names_itself_its_routes_and_the_replicas():
     assert 'server_name: "n1"' in text and "stream_replicas: 3" in text
     assert 'cluster {\n  name: "fleet"\n  listen: "10.0.0.1:6222"' in text
     assert 'routes: ["nats-route://10.0.0.2:6222"]' in text
+
+
+def test_consumers_in_memory_only_when_asked_as_the_embedded_broker_does(tmp_path):
+    """Its store is temporary, so its QoS 1 subscriptions' consumers are kept in memory (several
+    times cheaper to make); a cluster node's, and any other, stay on disk."""
+    users = BrokerUsers()
+    users.add("QUAD_1", BrokerRole.DRONE)
+    default = nats_config(users, mqtt_host="h", mqtt_port=1, store_dir="/s")
+    assert "consumer_memory_storage" not in default
+    asked = nats_config(users, mqtt_host="h", mqtt_port=1, store_dir="/s", consumer_memory=True)
+    mqtt_block = asked[asked.index("mqtt {") :]
+    assert "  consumer_memory_storage: true\n" in mqtt_block
+    embedded = NatsBroker(users=users)
+    embedded._write_config(tmp_path)
+    assert "consumer_memory_storage: true" in (tmp_path / "nats.conf").read_text()

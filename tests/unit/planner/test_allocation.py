@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import itertools
+
+import numpy as np
 import pytest
 
 from dronefleet.geo.types import LLA
+from dronefleet.ground.planner import allocation
 from dronefleet.ground.planner.allocation import (
     DroneSlot,
     altitude_offsets,
@@ -149,3 +153,54 @@ def test_a_drone_low_on_battery_takes_a_smaller_share(sensing, team):
     assert est.battery_end_pct >= 20
     with pytest.raises(ValueError, match="reserve"):
         split_route(sensing, [DroneSlot("X", team[1].position, False, 21.0, team[1].home)])
+
+
+@pytest.mark.parametrize("max_orders", [120, 50])
+def test_orders_that_cannot_end_are_skipped_and_the_answer_is_the_walks(
+    sensing, team, at, max_orders
+):
+    def ground(drone_id: str, east: float, north: float, battery: float) -> DroneSlot:
+        return DroneSlot(drone_id, at(east, north), False, battery, at(east, north))
+
+    drones = [*team, ground("D", 60, 40, 23.0), ground("E", -30, -30, 22.0)]  # the battery binds
+    r = allocation._route(sensing, None, None, allocation.DEFAULT_MODEL)
+    start = np.array(
+        [[allocation._start_costs(r, s, 0.0, allocation.DEFAULT_MODEL, True)] for s in drones]
+    )
+    usable = np.array([(s.battery_pct - 20) / 100 * 5500 for s in drones])
+    search = allocation._Search(r, start, usable, allocation.DEFAULT_MODEL, [0] * 5)
+    orders = list(itertools.islice(itertools.permutations(range(5)), max_orders))
+    steps = {"n": 0}
+    step = search.step
+
+    def counted(*args):
+        steps["n"] += 1
+        return step(*args)
+
+    search.step = counted  # type: ignore[method-assign]
+    walked = skipped = 0
+    found = 0
+    for limit in np.linspace(20.0, 120.0, 41):
+        steps["n"] = 0
+        walk = search._walk(float(limit), orders)
+        walked += steps["n"]
+        steps["n"] = 0
+        assert search.feasible(float(limit), orders) == walk
+        skipped += steps["n"]
+        found += walk is not None
+    assert 0 < found < 41  # some times are too short, some are not
+    assert skipped < (walked / 2 if max_orders == 120 else walked)
+    shuffled = orders[::-1]  # not in order: every order walked
+    assert search.feasible(60.0, shuffled) == search._walk(60.0, shuffled)
+
+
+def test_routes_costed_kind_by_kind_are_costed_as_step_by_step(sensing, at, monkeypatch):
+    waypoints = [at(7 * (i % 8), 7 * (i // 8)) for i in range(40)]
+    holds = [2.0 * (i % 3) for i in range(40)]
+    routes = [(sensing, None), (waypoints, holds)]
+    by_kind = [allocation._route(r, h, None, allocation.DEFAULT_MODEL) for r, h in routes]
+    monkeypatch.setattr(allocation, "unit_costs", lambda *args, **kwargs: None)
+    by_step = [allocation._route(r, h, None, allocation.DEFAULT_MODEL) for r, h in routes]
+    for mine, theirs in zip(by_kind, by_step, strict=True):
+        for name in ("leg_s", "hold_s", "leg_mah", "hold_mah"):
+            assert np.array_equal(getattr(mine, name), getattr(theirs, name))

@@ -8,11 +8,14 @@ tired copter could keep nothing, 23 vehicle s of gap.
 
 from __future__ import annotations
 
+import pytest
+
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground.planner.early import Decision, decide, leaving_steps
 from dronefleet.ground.planner.estimate import estimate
 from dronefleet.ground.planner.fleet_view import DroneView
+from dronefleet.ground.planner.start_delay import MAX_START_DELAY_S, RECENT, StartDelays
 
 from .test_returns import HOME, SITL_FLIGHT
 
@@ -38,14 +41,21 @@ def relief() -> DroneView:
     return DroneView("FRESH", True, "disarmed", None, home, home, 100.0, flight=dict(SITL_FLIGHT))
 
 
-def ask(battery: float, *, flight: dict | None = TIRED, delay_s: float = 0.0, n: int = 12):
+def ask(
+    battery: float,
+    *,
+    flight: dict | None = TIRED,
+    delay_s: float = 0.0,
+    start_delay_s: float = 0.0,
+    n: int = 12,
+):
     work = row(n)
     here = ned_to_lla(NED(30, 0, -ALT_M), HOME)  # over the first waypoint
     here = LLA(here.lat, here.lon, HOME.alt_m + ALT_M)
     tired = DroneView("TIRED", True, "flying", "M", here, HOME, battery, flight=flight)
     return decide(
         work, list(range(len(work))), here, HOME, battery, 20.0, [relief()], {"TIRED"}, "ours",
-        leaving_steps("rtl"), tired, delay_s=delay_s,
+        leaving_steps("rtl"), tired, delay_s=delay_s, start_delay_s=start_delay_s,
     )  # fmt: skip
 
 
@@ -90,3 +100,33 @@ def test_a_slow_check_launches_the_relief_sooner():
     slow, decision = first_launch(delay_s=20.0)
     assert slow > quick, (slow, quick)  # launched with more battery left: earlier
     assert decision.t_old - decision.t_new > 20.0
+
+
+def test_a_relief_slow_to_start_its_leg_is_launched_sooner():
+    # A loaded CI host: the relief SITL copter started 13.7 vehicle s after the decision.
+    quick, _ = first_launch()
+    slow, decision = first_launch(start_delay_s=14.0)
+    assert slow > quick, (slow, quick)
+    assert decision.t_old - decision.t_new > 14.0
+
+
+def test_the_longest_recent_send_to_start_delay_counts():
+    delays = StartDelays()
+    assert delays.longest() == 0.0
+    delays.sent("L1", 100.0)
+    delays.started("L1", 102.5)
+    delays.sent("L2", 50.0)
+    delays.started("L2", 63.7)
+    assert delays.longest() == pytest.approx(13.7)
+    delays.sent("L3", 500.0)
+    delays.started("L3", 3.0)  # its drone restarted: its clock began again
+    delays.sent("L4", 0.0)
+    delays.started("L4", 3600.0)  # sent to a drone offline an hour: capped
+    assert delays.longest() == MAX_START_DELAY_S
+    delays.started("NEVER-SENT", 10.0)
+    delays.sent("L5", None)  # no telemetry yet: nothing measured
+    delays.started("L5", 10.0)
+    for n in range(RECENT):  # only the latest legs count
+        delays.sent(f"Q{n}", 0.0)
+        delays.started(f"Q{n}", 1.0)
+    assert delays.longest() == 1.0

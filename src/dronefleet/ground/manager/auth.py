@@ -87,6 +87,14 @@ class TokenBook:
         self.sessions.forget()  # a replaced token's sessions end with it
         return token
 
+    async def issue_if_none(self, name: str, role: Role) -> str | None:
+        """A new token called ``name`` unless one exists (then None): a first start's."""
+        token = new_token()
+        if not await self.state.add_token_if_none(hash_token(token), name, role.label):
+            return None
+        self._cache.clear()
+        return token
+
     async def revoke(self, name: str) -> bool:
         self._cache.clear()
         self.sessions.forget()

@@ -10,7 +10,8 @@ import secrets
 import typing
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Body, Path, Query, Request
+import orjson
+from fastapi import APIRouter, Body, Path, Query, Request, Response
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, create_model
 
 from dronefleet.ground.manager.auth import Principal
@@ -63,6 +64,7 @@ FORCE_DOC = (
     "until the mission is paused or aborted"
 )
 _FLAG: TypeAdapter[bool] = TypeAdapter(bool)
+JSON = "application/json"
 
 
 @router.get(
@@ -71,8 +73,13 @@ _FLAG: TypeAdapter[bool] = TypeAdapter(bool)
     response_model=list[Drone],
     response_model_exclude_unset=True,
 )
-async def list_drones(request: Request, who: Viewer) -> list[dict[str, Any]]:
-    return await ctx_of(request).gateway.fleet()
+async def list_drones(request: Request, who: Viewer) -> Response:
+    # The records already have the Drone shape (ground/fleet.py, DroneRecord.public): FastAPI's
+    # validating them again against ``list[Drone]`` on every request cost 100 ms of CPU at
+    # 1000 drones, 18 % of a loaded ground's event loop (issue 27), so the answer is sent as
+    # it is; the response model stays for the OpenAPI schema, and
+    # tests/unit/ground/test_drone_list_answer.py holds the two to the same JSON.
+    return Response(orjson.dumps(await ctx_of(request).gateway.fleet()), media_type=JSON)
 
 
 @router.get(

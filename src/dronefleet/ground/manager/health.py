@@ -118,6 +118,9 @@ class GroundHealth:
             "photos": services.photo_collector,
         }
         clients = {name: s.client for name, s in named.items() if s is not None}
+        shared_ingest = getattr(services, "shared_ingest", None)  # its own link, over NATS
+        if shared_ingest is not None:
+            clients["shared ingestion (NATS)"] = shared_ingest
         disks = {"state": Path(services.state_path)}
         store_path = getattr(services.telemetry, "path", None)
         if isinstance(store_path, str) and store_path != ":memory:":

@@ -8,30 +8,31 @@ preparation (arming, climb) when on the ground, transit to its first waypoint, t
 Shares are contiguous chunks of the boustrophedon route, so drones work in separate regions.
 The makespan is found by bisection: for a candidate time ``T`` and an order of drones along the
 route, the chunk starts reachable by the first ``m`` drones within ``T`` are every allowed start
-up to some index (see ``_Search``), so one bisect per drone answers it; every order is tried, up
-to ``max_orders`` (5 drones: 120 orders; 10 drones: the first 720, sharing prefixes).
+up to some index (see :mod:`.allocation_search`), so one bisect per drone answers it; every order
+is tried, up to ``max_orders`` (5 drones: 120 orders; 10 drones: the first 720, sharing prefixes,
+skipping those that cannot end in time).
 """
 
 from __future__ import annotations
 
-import bisect
 import itertools
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, fields
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
 
 from dronefleet.geo.ned import lla_to_ned, local_frame
 from dronefleet.geo.types import LLA
+from dronefleet.ground.planner.allocation_search import _Route, _Search
+from dronefleet.ground.planner.coverage.path import RoutePoint
 from dronefleet.ground.planner.coverage.plan import CoveragePlan
 from dronefleet.ground.planner.estimate import DEFAULT_MODEL, VehicleModel, estimate
+from dronefleet.ground.planner.estimate.repeated import UnitCosts, unit_costs
 
 _PRECISION_S = 0.02
-#: Current during preparation and transit, as a multiple of hover (a conservative average of
-#: climbing and fast forward flight) for the battery budget of a share.
-_TRANSIT_CURRENT = 1.3
 
 
 @dataclass(frozen=True)
@@ -81,41 +82,28 @@ def _to_within(dist: np.ndarray, tol: float, vmax: float, a: float, poll: float)
     return np.where(t > 0, np.ceil(t / poll - 1e-9) * poll, 0.0)
 
 
-@dataclass
-class _Route:
-    xy: np.ndarray  # waypoints, metres east/north of waypoint 0
-    leg_s: np.ndarray  # unit i: flying from waypoint i-1 and its wait (0 for i = 0)
-    hold_s: np.ndarray  # unit i: what follows the wait (action, hold)
-    leg_mah: np.ndarray
-    hold_mah: np.ndarray
-    starts: np.ndarray  # where a share may begin
-    altitude_m: float
-    ref: LLA
-
-    @property
-    def prefix(self) -> np.ndarray:
-        """P[i] = work of units 1..i after the first: legs and holds."""
-        return np.concatenate([[0.0], np.cumsum((self.leg_s + self.hold_s)[1:])])
-
-    @property
-    def prefix_mah(self) -> np.ndarray:
-        return np.concatenate([[0.0], np.cumsum((self.leg_mah + self.hold_mah)[1:])])
-
-
 def _route(
     route: CoveragePlan | Sequence[LLA], holds_s: Any, altitude_m: float | None, model: VehicleModel
 ) -> _Route:
+    kinds: list[Any]
     if isinstance(route, CoveragePlan):
         waypoints, altitude = (
             route.waypoints,
             route.altitude_m if altitude_m is None else altitude_m,
         )
-        units = [route.unit_steps(i) for i in range(len(waypoints))]
+        steps_of: Callable[[int], list[dict[str, Any]]] = route.unit_steps
+        # A waypoint's steps follow from its route point but for where it is (coverage/plan.py).
+        what = [f.name for f in fields(RoutePoint) if f.name not in ("x", "y")]
+        kinds = list(map(attrgetter(*what), route.points))
         starts = np.array(route.chunk_starts(), dtype=bool)
     else:
         waypoints, altitude = list(route), 10.0 if altitude_m is None else altitude_m
         holds = [holds_s or 0.0] * len(waypoints) if not isinstance(holds_s, Sequence) else holds_s
-        units = [_hop(p, altitude, h) for p, h in zip(waypoints, holds, strict=True)]
+
+        def steps_of(i: int) -> list[dict[str, Any]]:
+            return _hop(waypoints[i], altitude, holds[i])
+
+        kinds = list(holds)  # a waypoint's steps follow from its hold but for where it is
         starts = np.ones(len(waypoints), dtype=bool)
     if not waypoints:
         raise ValueError("there are no waypoints to share")
@@ -125,19 +113,32 @@ def _route(
     north, east = local_frame(ref).horizontal_many(lat, (lon - ref.lon + 180.0) % 360.0 - 180.0)
     xy = np.column_stack((east, north))
     start = LLA(ref.lat, ref.lon, ref.alt_m + altitude)
-    est = estimate([s for u in units for s in u], start, ref, airborne=True, model=model)
     # Per unit: its first two steps (navigate, wait_for_flight) are the leg, the rest the hold.
+    costs = unit_costs(kinds, lat, lon, steps_of, start, ref, model=model)
+    if costs is None:  # units the replay does not cover: every step through the estimator
+        costs = _unit_costs_by_estimate(
+            [steps_of(i) for i in range(len(waypoints))], start, ref, model
+        )
+    leg, hold, leg_mah, hold_mah = costs.leg_s, costs.hold_s, costs.leg_mah, costs.hold_mah
+    leg[0] = leg_mah[0] = 0.0
+    return _Route(xy, leg, hold, leg_mah, hold_mah, starts, altitude, ref)
+
+
+def _unit_costs_by_estimate(
+    units: list[list[dict[str, Any]]], start: LLA, ref: LLA, model: VehicleModel
+) -> UnitCosts:
+    est = estimate([s for u in units for s in u], start, ref, airborne=True, model=model)
     lengths = np.array([len(u) for u in units])
     first = np.concatenate(([0], np.cumsum(lengths)[:-1]))
     is_leg = np.zeros(int(lengths.sum()), dtype=bool)
     is_leg[first] = is_leg[first + 1] = True
     secs, mah = np.asarray(est.per_step), np.asarray(est.per_step_mah)
-    leg = np.add.reduceat(np.where(is_leg, secs, 0.0), first)
-    hold = np.add.reduceat(np.where(is_leg, 0.0, secs), first)
-    leg_mah = np.add.reduceat(np.where(is_leg, mah, 0.0), first)
-    hold_mah = np.add.reduceat(np.where(is_leg, 0.0, mah), first)
-    leg[0] = leg_mah[0] = 0.0
-    return _Route(xy, leg, hold, leg_mah, hold_mah, starts, altitude, ref)
+    return UnitCosts(
+        np.add.reduceat(np.where(is_leg, secs, 0.0), first),
+        np.add.reduceat(np.where(is_leg, 0.0, secs), first),
+        np.add.reduceat(np.where(is_leg, mah, 0.0), first),
+        np.add.reduceat(np.where(is_leg, 0.0, mah), first),
+    )
 
 
 def _start_costs(
@@ -164,121 +165,7 @@ def _start_costs(
     return prep + to_tol[0] + np.maximum(horizontal, full_climb - to_tol[0])
 
 
-# -- the split --------------------------------------------------------------------------------
-# Why the reach sets are prefixes. A drone may also take an empty share, so the starts reachable
-# by the first m drones always include those of the first m - 1; from a start b the m-th drone
-# reaches every start in [b + 1, last(b) + 1], where last(b) >= b whenever b is usable at all
-# (in time and within the battery). Starting from {0}, the union of such intervals over every
-# reachable b <= R is [0, max(R, max_b last(b) + 1)]: the set stays "every allowed start up to
-# R" and one integer R describes it. A step is then max over b <= R of last(b), and for the
-# time limit last(b) = bisect(P, g[b] + T) with g[b] = P[b] - start[b] - hold[b], independent of
-# T: a running maximum of g, computed once per split, answers a step in O(log n) instead of
-# the O(n) interval sweep (np.add.at) it replaces — 10 drones over 10 000 waypoints went from
-# 12.5 s to a few tens of ms. Starts that are unusable give last(b) < b <= R and so never count.
-class _Search:
-    def __init__(
-        self,
-        r: _Route,
-        costs: np.ndarray,
-        usable_mah: np.ndarray,
-        model: VehicleModel,
-        place: list[int],
-    ) -> None:
-        # start[d, k, b]: drone d at the k-th distinct height, from waypoint b; the m-th share
-        # flies at height place[m] (shares at one height are costed once, not once each).
-        self.r, self.start, self.place = r, costs, place
-        self.prefix, self.prefix_mah = r.prefix, r.prefix_mah
-        self.n = len(r.xy)
-        self.allowed = np.append(r.starts, True)
-        # What each drone may spend on its share's work, less what getting there costs.
-        transit_a = model.hover_current_a * _TRANSIT_CURRENT
-        self.budget_mah = usable_mah[:, None, None] - costs * transit_a / 3.6
-        # g[d, m, b] (see above), -inf where a share may not begin; its running maximum over b
-        # and where that maximum is reached.
-        g = self.prefix - costs - r.hold_s
-        g = np.where(r.starts, g, -np.inf)
-        self.g_max = np.maximum.accumulate(g, axis=2)
-        at = np.where(g >= self.g_max, np.arange(self.n), 0)
-        self.g_arg = np.maximum.accumulate(at, axis=2)
-        self._p = self.prefix.tolist()  # bisect on lists: a step is a few scalar operations
-        self._e = self.prefix_mah.tolist()
-
-    def _last_by_energy(self, d: int, m: int, b: int) -> int:
-        """The last waypoint a share of drone ``d`` (m-th) from ``b`` can afford."""
-        left = float(self.budget_mah[d, self.place[m], b] - self.r.hold_mah[b])
-        if left < 0:
-            return b - 1
-        return bisect.bisect_right(self._e, self._e[b] + left) - 1
-
-    def step(self, reach: int, d: int, m: int, limit: float) -> int:
-        """The furthest start reachable once drone ``d`` (m-th share) has taken a chunk finishing
-        by ``limit``, when the first ``m`` drones reach every allowed start up to ``reach``."""
-        top = min(reach, self.n - 1)
-        k = self.place[m]
-        best = float(self.g_max[d, k, top])
-        if best == -np.inf:
-            return reach
-        b = int(self.g_arg[d, k, top])
-        last = bisect.bisect_right(self._p, best + limit + 1e-9) - 1
-        if self._last_by_energy(d, m, b) < last:  # the battery binds: look at every start
-            last = self._exact(reach, d, m, limit)
-        return max(reach, last + 1)
-
-    def _exact(self, reach: int, d: int, m: int, limit: float) -> int:
-        top = min(reach, self.n - 1)
-        bs = np.flatnonzero(self.r.starts[: top + 1])
-        p, e = self.prefix, self.prefix_mah
-        k = self.place[m]
-        budget = limit - self.start[d, k, bs] - self.r.hold_s[bs]
-        energy = self.budget_mah[d, k, bs] - self.r.hold_mah[bs]
-        last = np.minimum(
-            np.searchsorted(p, p[bs] + budget + 1e-9, side="right") - 1,
-            np.searchsorted(e, e[bs] + energy, side="right") - 1,
-        )
-        usable = (budget >= 0) & (energy >= 0)
-        return int(last[usable].max()) if usable.any() else -1
-
-    def first_fit(self, d: int, m: int, e: int, reach: int, limit: float) -> int:
-        """The first reachable start from which drone ``d`` (m-th) can fly up to ``e`` by
-        ``limit`` (``e`` itself, an empty share, when none can)."""
-        bs = np.flatnonzero(self.r.starts[: min(e, reach + 1)])
-        if e == 0 or bs.size == 0:
-            return e
-        r = self.r
-        k = self.place[m]
-        finish = self.start[d, k, bs] + r.hold_s[bs] + self.prefix[e - 1] - self.prefix[bs]
-        mah = r.hold_mah[bs] + self.prefix_mah[e - 1] - self.prefix_mah[bs]
-        ok = (finish <= limit + 1e-6) & (mah <= self.budget_mah[d, k, bs] + 1e-6)
-        return int(bs[np.argmax(ok)]) if ok.any() else e
-
-    def feasible(self, limit: float, orders: list[tuple[int, ...]]) -> tuple[int, ...] | None:
-        # Orders come as permutations in order, so one shares a prefix with the one before:
-        # the reaches of that prefix are kept and only the rest is stepped (a walk of the tree
-        # of prefixes, without a dictionary of them).
-        previous: tuple[int, ...] = ()
-        reaches = [0]
-        for order in orders:
-            same = 0
-            while same < min(len(order), len(previous)) and order[same] == previous[same]:
-                same += 1
-            del reaches[same + 1 :]
-            if reaches[-1] >= self.n:
-                return order
-            for k in range(same, len(order)):
-                reaches.append(self.step(reaches[-1], order[k], k, limit))
-                if reaches[-1] >= self.n:
-                    return order
-            previous = order
-        return None
-
-    def finish(self, d: int, m: int, b: int, e: int) -> float:
-        return self.cost(d, m, b) + float(self.r.hold_s[b] + self.prefix[e - 1] - self.prefix[b])
-
-    def cost(self, d: int, m: int, b: int) -> float:
-        """Seconds until drone ``d``, flying the ``m``-th share, has reached waypoint ``b``."""
-        return float(self.start[d, self.place[m], b])
-
-
+# -- the split (the search: allocation_search.py) ---------------------------------------------
 def split_route(
     route: CoveragePlan | Sequence[LLA],
     drones: Sequence[DroneSlot],

@@ -140,6 +140,7 @@ async def _check(planner: PlannerOps, record: MissionRecord, leg: Leg) -> None:
         record.options.wind_mps,
         record.options.wind_from_deg,
         planner.check_delays.get(leg.leg_id, 0.0),
+        planner.start_delays.longest(),
     )
     _note_delay(planner, leg, asked_at)
     if decision is None:
@@ -273,12 +274,14 @@ def decide(
     wind_mps: float | None = None,
     wind_from_deg: float = 0.0,
     delay_s: float = 0.0,
+    start_delay_s: float = 0.0,
 ) -> Decision | str | None:
     """Whether to hand the rest of ``left`` over now: None (not yet, or no need), a reason why
     nobody can, or the handover. Each drone is estimated as its own vehicle flies (``tired``:
     the drone that cannot finish; estimate.drone_model), in the mission's wind (``wind_mps``
     from ``wind_from_deg``) or its autopilot's. A handover decided now reaches the
-    drones ``delay_s`` later (what the checks took, :func:`_note_delay`). Runs in the planning
+    drones ``delay_s`` later (what the checks took, :func:`_note_delay`), and the relief starts
+    ``start_delay_s`` after its leg is sent (ground/planner/start_delay.py). Runs in the planning
     worker (ground/planner/worker.py)."""
     draws = fleet_draws([tired.flight if tired else None, *(d.flight for d in fleet)])
 
@@ -333,6 +336,6 @@ def decide(
     # Not launched now, it would be at the next decision: after the next waypoint's report, or
     # after this check's delay if that is longer (a step reported meanwhile is checked at once
     # after), and that decision takes its delay too. Launch now if that would be late.
-    if t_old - max(t_next, delay_s) > t_new + delay_s + LAUNCH_MARGIN_S:
+    if t_old - max(t_next, delay_s) > t_new + delay_s + start_delay_s + LAUNCH_MARGIN_S:
         return None  # not yet: the next decision is still in time
     return Decision(chosen, prefix, kept, rest, groups, keep, t_old, t_new, leave_at)

@@ -14,6 +14,7 @@ from typing import Any, Protocol
 
 from dronefleet.ground.planner.fleet_view import FleetView
 from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, MissionState
+from dronefleet.ground.planner.start_delay import StartDelays
 from dronefleet.ground.planner.worker import PlanningWorker
 
 
@@ -29,6 +30,7 @@ class PlannerOps(Protocol):
     confirming: set[str]  # legs whose drone's loss is being confirmed (ground/planner/lost.py)
     trimming: set[str]  # replacement legs about to be cut to what nobody flew (lost.py)
     check_delays: dict[str, float]  # leg id -> its early checks' longest delay (early.py)
+    start_delays: StartDelays  # legs' send-to-start delays (start_delay.py)
     check_again: set[str]  # legs that reported a step while their early check ran (early.py)
 
     @property

@@ -9,9 +9,10 @@ Send. For each drone of the plan:
   says so;
 * **gps**: a 3-D fix with at least :data:`MIN_SATELLITES` satellites (ArduPilot's GPS arming
   check asks for 6);
-* **link**: heartbeats fresh (heard within three intervals, the Drone Identifier's own rule for
-  "lost"), the drone's link to its autopilot up, and the autopilot's own link-loss failsafe not
-  off (a vehicle whose drone software died hovered until its battery was flat: issue 26);
+* **link**: the drone not lost (the Drone Identifier's verdict: heard within three intervals of
+  the ground's awake time, so a stall of the ground's own loop is not a silence), the drone's
+  link to its autopilot up, and the autopilot's own link-loss failsafe not off (a vehicle
+  whose drone software died hovered until its battery was flat: issue 26);
 * **sensors**: what the mission's steps use is on board: a camera for ``takepic`` and
   ``camera_trigger``, a measuring sensor for ``read_sensors`` (the drone's gear, Listing 4.2);
 * **fence** (only when the mission has one): the drone starts inside it; every share is checked
@@ -35,7 +36,6 @@ from pydantic import BaseModel
 
 from dronefleet.errors import InvalidInput
 from dronefleet.geo.types import LLA
-from dronefleet.ground.fleet import LOST_AFTER_INTERVALS, MIN_LOST_AFTER_S
 from dronefleet.ground.planner.fleet_view import DroneView
 from dronefleet.ground.planner.launch import Gate, MissionSpec, Planned, planned
 from dronefleet.ground.planner.service import MissionPlanner, PlannerError
@@ -136,8 +136,15 @@ def link(record: dict[str, Any]) -> Check:
         return _check(CheckName.LINK, CheckStatus.FAIL, why)
     if not isinstance(ago, int | float):
         return _check(CheckName.LINK, CheckStatus.UNKNOWN, "never heard")
-    if status != "online" or ago > max(LOST_AFTER_INTERVALS * interval, MIN_LOST_AFTER_S):
-        return _check(CheckName.LINK, CheckStatus.FAIL, f"last heartbeat {ago:.0f} s ago")
+    if status != "online":  # the Identifier's verdict, counted in the ground's awake time
+        why = f"last heartbeat {ago:.0f} s ago"
+        lost_after = record.get("lost_after_s")  # the Identifier's own figure, in every record
+        if isinstance(lost_after, int | float):
+            why += f" (lost after {lost_after:.1f} s)"
+        return _check(CheckName.LINK, CheckStatus.FAIL, why)
+    # ``ago`` is wall time: a ground stalled by a busy host reads heartbeats late, and it is the
+    # Identifier's awake-time rule, not this clock, that says when a drone is lost (issue 19; the
+    # suite's pre-flight once refused a drone heard "2 s ago" at 10x on a loaded host).
     why = f"last heartbeat {ago:.1f} s ago (one every {interval:.1f} s)"
     failsafe = record.get("link_failsafe")
     if isinstance(failsafe, dict) and failsafe.get("action") == "off":

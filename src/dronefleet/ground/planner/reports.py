@@ -41,6 +41,8 @@ async def on_progress(planner: MissionPlanner, topic_name: str, payload: bytes) 
         if reconcile.answers_a_report_request(msg):
             planner.spawn(reconcile.forgotten(planner, record, leg), f"forgotten:{leg.leg_id}")
             return
+        if msg.event is ProgressEvent.ACCEPTED:
+            planner.start_delays.started(leg.leg_id, msg.vehicle_time_s)
         if apply_progress(record, leg, msg):  # a step reported for the first time
             paths.add_point(record, leg.drone_id, msg.vehicle_time_s, msg.position)
         if note_seq(leg, msg.seq):

@@ -40,6 +40,7 @@ from dronefleet.ground.planner.models import (
     MissionState,
 )
 from dronefleet.ground.planner.options import LegRole
+from dronefleet.ground.planner.start_delay import StartDelays
 from dronefleet.ground.planner.store import MissionStore
 from dronefleet.ground.planner.worker import PlanningWorker
 from dronefleet.ground.state import StateStore
@@ -102,6 +103,7 @@ class MissionPlanner:
         self._flusher: asyncio.Task[None] | None = None
         self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
         self.check_delays: dict[str, float] = {}  # early replacement's own delay
+        self.start_delays = StartDelays()  # legs' send-to-start delays (start_delay.py)
         self.check_again: set[str] = set()  # a step reported while its early check ran
         self._checking: set[str] = set()  # legs whose early-replacement check is running
         self.gap_asked: dict[str, float] = {}  # leg id -> when its missing reports were asked
@@ -274,6 +276,9 @@ class MissionPlanner:
             fence=record.options.geofence,
             rally=record.options.rally_points,
         )
+        self.start_delays.sent(
+            leg.leg_id, (self.latest.get(leg.drone_id) or {}).get("vehicle_time_s")
+        )
         await self.client.publish(
             topic(leg.drone_id, Channel.MISSION, Direction.IN), request, qos=QOS_COMMAND
         )
@@ -281,6 +286,7 @@ class MissionPlanner:
 
     async def stop_leg(self, leg: Leg, *, state: LegState = LegState.STOPPED) -> None:
         leg.state = state
+        self.start_delays.forget(leg.leg_id)
         await self.client.publish(
             topic(leg.drone_id, Channel.MISSION, Direction.IN),
             MissionRequest(mission_id=leg.leg_id, action=MissionAction.STOP),

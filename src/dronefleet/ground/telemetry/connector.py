@@ -39,10 +39,14 @@ class TelemetryConnector:
         flush_s: float = 0.5,
         batch_size: int = 2_000,
         inbox: FleetInbox | None = None,
+        from_inbox: bool = True,
     ) -> None:
         #: Where the telemetry comes from; alone (no ground's inbox given), an inbox of its own.
         self.inbox = inbox or FleetInbox(broker_url, client_id=client_id)
         self._own_inbox = inbox is None
+        #: False: the inbox's stream is not stored; another source calls :meth:`take` (a
+        #: replica's share of the fleet's telemetry, ground/telemetry/shared_ingest.py).
+        self.from_inbox = from_inbox
         self.store = store
         self.flush_s = flush_s
         self.batch_size = batch_size
@@ -66,7 +70,8 @@ class TelemetryConnector:
         return self.inbox.telemetry.client
 
     async def start(self) -> TelemetryConnector:
-        self.inbox.telemetry.direct("telemetry connector", self.take)
+        if self.from_inbox:
+            self.inbox.telemetry.direct("telemetry connector", self.take)
         if self._own_inbox:
             await self.inbox.start()
         self._task = asyncio.create_task(self._flush_loop(), name="telemetry:flush")

@@ -1,23 +1,27 @@
 """SQLite telemetry store: the embedded default Time Series Database (seed 4.2.2.1 used InfluxDB).
 
-One narrow table ``(drone, time_us, field, value)`` so any field a drone sends can be stored; the
-same epoch-aligned mean-per-bucket downsampling as InfluxDB's ``GROUP BY time()``. WAL mode, through
-aiosqlite (one connection on its own thread, so the event loop never waits on disk; a kept library
-instead of our own executor wrapper), every call held on virtual time as in ground/state.py.
+A row per message, its fields as one JSON object (``telemetry_points``), so any field a drone
+sends can be stored; read as the narrow view ``telemetry (drone, time_us, field, value)``, with
+the same epoch-aligned mean-per-bucket downsampling as InfluxDB's ``GROUP BY time()``. WAL mode,
+through aiosqlite (one connection on its own thread, so the event loop never waits on disk; a
+kept library instead of our own executor wrapper), every call held on virtual time as in
+ground/state.py.
 
-A batch is one transaction and one statement: its points go in as one JSON parameter (encoded by
-orjson) and SQLite unpacks them (``json_each``), a row per field. ``executemany`` took the GIL
-back for every row between SQLite steps, so while the event loop was busy each row waited for
-it (up to the interpreter's 5 ms switch interval): on an idle two-core host 32,000 rows took 10 s
-instead of 0.08 s, and at a thousand drones 4.5 % of the telemetry was stored (issue 27,
-bench/ground_capacity.py).
+A batch is one transaction and one statement: its points go in as one JSON parameter (encoded
+by orjson) and SQLite unpacks them (``json_each``). ``executemany`` took the GIL back for every
+row between SQLite steps, so while the event loop was busy each row waited for it (up to the
+interpreter's 5 ms switch interval): on an idle two-core host 32,000 rows took 10 s instead of
+0.08 s, and at a thousand drones 4.5 % of the telemetry was stored (issue 27,
+bench/ground_capacity.py). It was then a row per field: 16 rows per message, each with its index
+entry, 0.041-0.057 ms of CPU per message against 0.010-0.014 ms for a row per message (5,000
+messages of 16 fields, measured with SQLite alone), with half the write-ahead log. A store
+written then keeps its rows (``telemetry_rows``), still read.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import sqlite3
 from pathlib import Path
 
 import aiosqlite
@@ -33,26 +37,53 @@ from dronefleet.owner_only import private_file
 from dronefleet.virtual_loop import held
 
 _SCHEMA = """
-CREATE TABLE IF NOT EXISTS telemetry (
+CREATE TABLE IF NOT EXISTS telemetry_rows (
     drone TEXT NOT NULL,
     time_us INTEGER NOT NULL,
     field TEXT NOT NULL,
     value REAL NOT NULL
 );
-CREATE INDEX IF NOT EXISTS telemetry_drone_time ON telemetry (drone, time_us);
+CREATE INDEX IF NOT EXISTS telemetry_drone_time ON telemetry_rows (drone, time_us);
+CREATE TABLE IF NOT EXISTS telemetry_points (
+    drone TEXT NOT NULL,
+    time_us INTEGER NOT NULL,
+    fields TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS telemetry_points_drone_time ON telemetry_points (drone, time_us);
+CREATE VIEW IF NOT EXISTS telemetry (drone, time_us, field, value) AS
+    SELECT drone, time_us, field, value FROM telemetry_rows
+    UNION ALL
+    SELECT p.drone, p.time_us, f.key, f.value FROM telemetry_points AS p, json_each(p.fields) AS f;
 """
-#: A batch of points, ``[[drone, time_us, {field: value}], ...]``, as rows: each point's parts
-#: read once (MATERIALIZED: SQLite 3.35+), then a row per field.
-_MATERIALIZED = "MATERIALIZED" if sqlite3.sqlite_version_info >= (3, 35) else ""
-_INSERT = f"""
-WITH points AS {_MATERIALIZED} (
-    SELECT json_extract(value, '$[0]') AS drone, json_extract(value, '$[1]') AS time_us,
-           json_extract(value, '$[2]') AS fields
-    FROM json_each(?)
-)
-INSERT INTO telemetry (drone, time_us, field, value)
-SELECT points.drone, points.time_us, f.key, f.value FROM points, json_each(points.fields) AS f
+#: A batch of points, ``[[drone, time_us, {field: value}], ...]``, a row each.
+_INSERT = """
+INSERT INTO telemetry_points (drone, time_us, fields)
+SELECT json_extract(value, '$[0]'), json_extract(value, '$[1]'), json_extract(value, '$[2]')
+FROM json_each(?)
 """
+#: One drone's fields, mean per bucket, from both tables (each through its own index).
+_QUERY = """
+SELECT field, bucket, AVG(value) FROM (
+    SELECT field, (time_us / :every) * :every AS bucket, value FROM telemetry_rows
+    WHERE drone = :drone AND time_us >= :from_us AND time_us < :to_us {rows_fields}
+    UNION ALL
+    SELECT f.key AS field, (p.time_us / :every) * :every AS bucket, f.value AS value
+    FROM telemetry_points AS p, json_each(p.fields) AS f
+    WHERE p.drone = :drone AND p.time_us >= :from_us AND p.time_us < :to_us {points_fields}
+) GROUP BY field, bucket ORDER BY field, bucket
+"""
+
+
+async def _rows_table_renamed(db: aiosqlite.Connection) -> None:
+    """A store written by an earlier ground, a row per field in the table ``telemetry``: that
+    table becomes ``telemetry_rows``, still read; ``telemetry`` is then the view of both."""
+    cursor = await held(db.execute("SELECT type FROM sqlite_master WHERE name = 'telemetry'"))
+    try:
+        row = await held(cursor.fetchone())
+    finally:
+        await held(cursor.close())
+    if row is not None and row[0] == "table":
+        await held(db.execute("ALTER TABLE telemetry RENAME TO telemetry_rows"))
 
 
 class SqliteTelemetryStore:
@@ -76,6 +107,7 @@ class SqliteTelemetryStore:
         db = await held(aiosqlite.connect(self.path, isolation_level=None))
         await held(db.execute("PRAGMA journal_mode=WAL"))
         await held(db.execute("PRAGMA synchronous=NORMAL"))
+        await _rows_table_renamed(db)
         await held(db.executescript(_SCHEMA))
         self._db = db
 
@@ -98,21 +130,18 @@ class SqliteTelemetryStore:
         return len(points)
 
     async def query(self, query: TelemetryQuery) -> TelemetrySeries:
-        sql = (
-            "SELECT field, (time_us / :every) * :every AS bucket, AVG(value) FROM telemetry "
-            "WHERE drone = :drone AND time_us >= :from_us AND time_us < :to_us"
-        )
         args: dict[str, object] = {
             "every": query.every_us,
             "drone": query.drone_id,
             "from_us": query.from_us,
             "to_us": query.to_us,
         }
+        rows_fields = points_fields = ""
         if query.fields:
-            names = [f":f{i}" for i in range(len(query.fields))]
-            sql += f" AND field IN ({', '.join(names)})"
+            names = ", ".join(f":f{i}" for i in range(len(query.fields)))
+            rows_fields, points_fields = f"AND field IN ({names})", f"AND f.key IN ({names})"
             args.update({f"f{i}": name for i, name in enumerate(query.fields)})
-        sql += " GROUP BY field, bucket ORDER BY field, bucket"
+        sql = _QUERY.format(rows_fields=rows_fields, points_fields=points_fields)
         cursor = await held(self.db.execute(sql, args))
         try:
             rows = await held(cursor.fetchall())

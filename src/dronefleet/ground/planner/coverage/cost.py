@@ -34,17 +34,23 @@ class RouteTime:
 
     def of(self, points: list[RoutePoint], hold_s: float = 0.0) -> float:
         """Seconds to fly ``points`` in order, holding ``hold_s`` at each working stop."""
+        return self.timed(points, hold_s)[0]
+
+    def timed(self, points: list[RoutePoint], hold_s: float = 0.0) -> tuple[float, float]:
+        """(:meth:`of`, the route's length in metres), its legs measured once: a bound checked
+        after every gap closed wants both (:func:`~.candidate.beaten`)."""
         xy = route_xy(points)
         d = np.hypot(*np.diff(xy, axis=0).T) if len(xy) > 1 else np.zeros(0)
+        length = float(d.sum()) if len(xy) > 1 else 0.0
         keep = d > 1e-9
         legs, steps = d[keep], np.diff(xy, axis=0)[keep]
         work = sum(1 for p in points if p.kind is Kind.WORK)
         if len(legs) == 0:
-            return work * hold_s
+            return work * hold_s, length
         # The drone stops where the route turns; through a waypoint on a straight run (a stop-
         # mode swath's) it keeps its speed, reached within the estimator's 2 m.
         heading = np.arctan2(steps[:, 1], steps[:, 0])
         turn = np.abs((np.diff(heading) + np.pi) % (2 * np.pi) - np.pi)
         stops = int((turn > np.radians(STOP_TURN_DEG)).sum()) + 1
         metres = float(legs.sum()) + self.turn_m * stops
-        return metres / self.speed_mps + work * hold_s
+        return metres / self.speed_mps + work * hold_s, length

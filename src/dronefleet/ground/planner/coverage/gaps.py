@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -113,15 +114,22 @@ class GapFiller:
         router: Transits,
         left: list[Polygon] | None = None,
         budget: float | None = None,
+        over: Callable[[list[RoutePoint]], bool] | None = None,
+        first: list[Gap] | None = None,
     ) -> tuple[list[RoutePoint], list[Polygon]]:
         """The points with spurs added, and the gaps left uncovered (none at a 100 % target);
-        ``left`` are gaps already left, ``budget`` what may still be (default: the allowance)."""
+        ``left`` are gaps already left, ``budget`` what may still be (default: the allowance).
+        ``over``: whether a route is past what it may cost; closing only adds to a route, so
+        once one is, the filler stops closing gaps by detours there (the gaps not yet closed
+        are returned as left: a candidate angle that cannot win is not finished). ``first``:
+        the gaps of ``points`` if already found (the angle's guess found them)."""
         points = list(points)
         left = list(left or [])
         budget = self.leave_m2 if budget is None else budget
         cover: shapely.Geometry | None = None
         for _ in range(self.max_rounds):
-            found = self.gaps(points, area)
+            found = self.gaps(points, area) if first is None else first
+            first = None
             gaps = [g for g in found if not _among(g, left)]
             if gaps and budget > 0:
                 kept = self.slivers(points, gaps, budget)
@@ -136,8 +144,11 @@ class GapFiller:
                     shapely.prepare(cover)
                 # One at a time, largest first: each sees the detours before it, and a small gap
                 # is often closed by a large one's detour (the next round finds it gone).
-                for g in sorted(gaps, key=lambda g: -g.area_m2):
+                ranked = sorted(gaps, key=lambda g: -g.area_m2)
+                for n, g in enumerate(ranked):
                     points = self._close(points, g, area, cover, router)
+                    if over is not None and over(points):
+                        return points, [g.shape for g in ranked[n + 1 :]]
                 continue
             xy = route_xy(points)
             # Never inside a fly-through swath (that would break the camera run).
@@ -173,10 +184,10 @@ class GapFiller:
         detours = Detours(self.radius_m, self.tolerance_m, self.builder)
         found = detours.cheapest(points, xy, gap, stroke, cover)
         if found is not None:
-            k, extra = found
-        else:
-            allowed = np.array([p.kind is not Kind.SWATH_START for p in points])
-            k, extra = self._spur(points, xy, allowed, stroke.start, stroke.end, router)
+            k, leg = found
+            return [*points[:k], *leg, *points[k + 2 :]]
+        allowed = np.array([p.kind is not Kind.SWATH_START for p in points])
+        k, extra = self._spur(points, xy, allowed, stroke.start, stroke.end, router)
         return [*points[: k + 1], *extra, *points[k + 1 :]]
 
     def slivers(self, points: list[RoutePoint], gaps: list[Gap], budget: float) -> list[Gap]:

@@ -18,8 +18,18 @@ The planning time this costs (bench/coverage_vs_f2c.py, CPU time on a shared 2-c
 load of 6 to 14): 11-98 ms for the bench's fields up to 9 ha before gaps were closed by detours
 (:mod:`.gaps`), where the cell-by-cell planner took 4-31 ms there and Fields2Cover 197-492 ms on
 the tester's. The detours cost the small, gappy fields two to four times that (a star about 100
--> 290 ms, measured side by side at a load near 20) for 5-15 % shorter paths; the route is
-bounded by the solver's move and round limits (:mod:`.solver`) and the filler's rounds.
+-> 290 ms, measured side by side at a load near 20) for 5-15 % shorter paths. Since then the
+small fields no longer weave strokes as well, a second angle's closing stops once it cannot win,
+and the filler starts from the gaps the guess found: side by side at a load of 8 to 13, a star
+200 -> 125 ms, an arrowhead 215 -> 120, a dog-leg 180 -> 85, a traced outline 310 -> 240 (stop
+mode). Since then an angle that can no longer be flown is not closed, or stops being closed,
+by its length too (:func:`~.candidate.beaten`), an angle slower before its gaps than two guesses
+is not guessed, and the detours measure what does not change once per gap: alternating with the
+code before at a load of 3 to 5 (the best of ten runs, each the best of three), a traced outline
+179 -> 116 ms, a star 84 -> 73, a pond 50 -> 37, a dog-leg 64 -> 50 (stop mode), the same
+routes; the farm and the 9 ha field, which close their gaps without detours, 99 -> 91 and 81 ->
+75. The route is bounded by the solver's move and round limits (:mod:`.solver`) and the
+filler's rounds.
 """
 
 from __future__ import annotations
@@ -33,8 +43,16 @@ from shapely import affinity
 from shapely.geometry import LineString, Point, Polygon
 
 from dronefleet.ground.planner.coverage.angle import AngleChooser
+from dronefleet.ground.planner.coverage.candidate import (
+    Candidate,
+    Over,
+    beaten,
+    chosen,
+    quicker_live,
+    route_length,
+)
 from dronefleet.ground.planner.coverage.cost import RouteTime
-from dronefleet.ground.planner.coverage.decompose import BoustrophedonDecomposer, Cell
+from dronefleet.ground.planner.coverage.decompose import BoustrophedonDecomposer
 from dronefleet.ground.planner.coverage.ends import trimmed
 from dronefleet.ground.planner.coverage.gaps import SLIVER_SPACINGS, GapFiller
 from dronefleet.ground.planner.coverage.path import PathBuilder, RoutePoint, route_xy
@@ -47,7 +65,6 @@ from dronefleet.ground.planner.coverage.swaths import (
     from_sweep_xy,
     to_sweep,
 )
-from dronefleet.ground.planner.coverage.uncovered import Gap
 
 #: Most waypoints (or pictures) one area may ask for; a mission holds at most 10 000 steps.
 MAX_WAYPOINTS = 20_000
@@ -62,40 +79,11 @@ FEWER_AT = 2
 TRACED_VERTICES = 400
 #: Most angles whose gaps are closed (see CoveragePipeline._search).
 CLOSED = 2
-#: Routes whose times differ by less than this fraction fly as long: the shorter one wins.
-SAME_TIME = 0.01
 #: Most swaths a route may have for its gaps to be closed by strokes the solver weaves in (a
 #: second solve and path); past that a gap costs little beside the route, and spurs do.
 STROKES_UP_TO = 60
 #: Largest area (in spacing-squares, see SHORTLIST) whose gaps are closed by detours first.
 DETOUR_SQUARES = 260
-#: Strokes are woven only when detours and spurs added more than this fraction to the route:
-#: below it they never won over the bench's fields (a pond's 2 %), and the second solve and
-#: fill cost as much again.
-WOVEN_PAST = 0.03
-
-
-@dataclass
-class Candidate:
-    """One angle's route (sweep frame), what it leaves uncovered, and what it costs to fly."""
-
-    angle: float
-    sweep_area: Polygon
-    cells: list[Cell]
-    builder: PathBuilder
-    start: tuple[float, float]
-    routed: Routed | None = None
-    points: list[RoutePoint] = field(default_factory=list)
-    hold_s: float = 0.0  # at each working stop
-    left: list[Polygon] = field(default_factory=list)  # gaps left uncovered
-    time_s: float = 0.0
-    length_m: float = 0.0
-    gaps: list[Gap] | None = None  # what the route leaves, before spurs
-    guess: float = 0.0  # its time with a spur to each gap (seconds)
-
-    @property
-    def key(self) -> tuple[float, float]:
-        return round(self.time_s, 3), round(self.length_m, 3)
 
 
 @dataclass(frozen=True)
@@ -217,17 +205,28 @@ class CoveragePipeline:
         the quickest of those (then the shortest, :func:`chosen`) is flown."""
         for c in found:
             self.route(spec, c)
-            if filler is not None:
+        if filler is not None:
+            # A guess is never below the route's time before its gaps: an angle already slower
+            # than CLOSED guesses made cannot be among the closed, and its gap search (a U's
+            # third angle: 6 ms) is not made (quickest routes first, so the guesses are low).
+            guessed: list[float] = []
+            for c in sorted(found, key=lambda c: c.time_s):
+                if len(guessed) >= CLOSED and c.time_s > sorted(guessed)[CLOSED - 1]:
+                    c.guess = math.inf
+                    continue
                 self._guess(c, filler)
+                guessed.append(c.guess)
         closed: list[Candidate] = []
         for c in sorted(found, key=lambda c: c.guess)[:CLOSED]:  # stable: the shortlist's order
             # A guess is no bound (strokes often close gaps for less than a spur each), so the
             # likeliest few are closed whatever their guesses; but closing only adds to a
-            # route, so one already slower than a closed one (past a tie) is not closed.
-            if closed and c.time_s > min(d.time_s for d in closed) * (1.0 + SAME_TIME):
+            # route, so one that can no longer be chosen over those closed is not closed, and
+            # closing stops once it cannot (:func:`beaten`).
+            done = [(d.time_s, d.length_m) for d in closed]
+            if beaten(c.time_s, c.length_m, done):
                 continue
             if filler is not None:
-                self.close_gaps(c, filler)
+                self.close_gaps(c, filler, self._beaten(c, done) if done else None)
                 self._cost(spec, c)
             closed.append(c)
         return chosen(closed)
@@ -245,12 +244,19 @@ class CoveragePipeline:
             detours=self.detours,
         )
 
-    def close_gaps(self, c: Candidate, filler: GapFiller) -> None:
-        """Cover what ``c`` leaves, up to the coverage target (stage 6), the quicker of two
-        ways (then the shorter, :func:`quicker`): detours and spurs off the route as it is
-        (:meth:`GapFiller.fill`), or first a stroke across each gap woven into the route by the
-        solver. Neither wins everywhere: the strokes cost a five-pointed star 30 m more than
-        bending its transits into the tips, and save a 9 ha field 200 m."""
+    def _beaten(self, c: Candidate, closed: list[tuple[float, float]]) -> Over:
+        """Whether ``c``'s points can no longer be chosen over ``closed`` (:func:`beaten`)."""
+        return lambda points: beaten(*self.timing.timed(points, c.hold_s), closed)
+
+    def close_gaps(self, c: Candidate, filler: GapFiller, over: Over | None = None) -> None:
+        """Cover what ``c`` leaves, up to the coverage target (stage 6): on small fields by
+        detours and spikes off the route as it is, else spurs (:meth:`GapFiller.fill`); on
+        larger ones the solver first weaves a stroke across each gap into the route (200 m
+        shorter than spurs on a 9 ha field). Below a 100 % target small fields try the strokes
+        too and fly the quicker (then the shorter, :func:`quicker`): a star at 97.5 % flies
+        459 m so, 476 m by detours. At 100 % they no longer do: since detours may spike off a
+        leg the strokes never won there (a star's, an arrowhead's, a dog-leg's routes were
+        1-12 % longer), and the second solve and fill were a quarter of their planning."""
         routed = c.routed
         assert routed is not None
         # Detours on small fields only: on the bench's 2.9 ha farm, 9 ha field and square
@@ -260,27 +266,30 @@ class CoveragePipeline:
         small = len(routed.passes) <= STROKES_UP_TO and squares <= DETOUR_SQUARES
         filler = replace(filler, builder=c.builder, detours=filler.detours and small)
         weave = routed.solved and len(routed.passes) <= STROKES_UP_TO
+        weave &= not small or filler.leave_m2 > 0
         options: list[tuple[Routed, list[RoutePoint], list[Polygon]]] = []
-        added = math.inf
-        if small or not weave:  # a large field weaves its strokes first, as before detours
-            points, left = filler.fill(c.points, c.sweep_area, routed.transits)
+        if small or not weave:
+            points, left = filler.fill(
+                c.points, c.sweep_area, routed.transits, over=over, first=c.gaps
+            )
             options.append((routed, points, left))
-            added = _length(points) / max(_length(c.points), 1e-9) - 1.0
-        if weave and added > WOVEN_PAST:
+        if weave:
             strokes, kept, budget = filler.strokes(c.points, c.sweep_area, c.gaps)
-            woven = routed
-            built = c.points
+            woven, built, first = routed, c.points, c.gaps
             if strokes:
                 woven = self.orderer.reorder(
                     routed.passes, list(strokes), c.start, c.sweep_area, routed
                 )
-                built = c.builder.build(woven.passes, woven.transits)
+                built, first = c.builder.build(woven.passes, woven.transits), None
             if strokes or not options:
-                points, left = filler.fill(built, c.sweep_area, woven.transits, kept, budget)
+                points, left = filler.fill(
+                    built, c.sweep_area, woven.transits, kept, budget, over, first
+                )
                 options.append((woven, points, left))
-        timed = [(self.timing.of(p, c.hold_s), _length(p)) for _, p, _ in options]
-        k = quicker(timed)
-        c.routed, c.points, c.left = options[k]
+        timed = [(self.timing.of(p, c.hold_s), route_length(p)) for _, p, _ in options]
+        # An option ``over`` stopped part-way cannot be chosen: no rival to a finished one.
+        live = [over is None or len(options) == 1 or not over(p) for _, p, _ in options]
+        c.routed, c.points, c.left = options[quicker_live(timed, live)]
 
     def _guess(self, c: Candidate, filler: GapFiller) -> None:
         """``c``'s time with a spur to each gap, across it and back: what ranks the angles."""
@@ -300,31 +309,8 @@ class CoveragePipeline:
         c.guess = c.time_s + metres / self.timing.speed_mps + holds * c.hold_s
 
     def _cost(self, spec: AreaSpec, c: Candidate) -> None:
-        c.length_m = _length(c.points)
+        c.length_m = route_length(c.points)
         c.time_s = self.timing.of(c.points, c.hold_s)
-
-
-def quicker(timed: list[tuple[float, float]]) -> int:
-    """Of (seconds, metres) routes, the shortest within :data:`SAME_TIME` of the quickest;
-    the first of equals."""
-    fastest = min(t for t, _ in timed)
-    near = [k for k, (t, _) in enumerate(timed) if t <= fastest * (1.0 + SAME_TIME)]
-    return min(near, key=lambda k: round(timed[k][1], 3))
-
-
-def _length(points: list[RoutePoint]) -> float:
-    xy = route_xy(points)
-    return float(np.hypot(*np.diff(xy, axis=0).T).sum()) if len(xy) > 1 else 0.0
-
-
-def chosen(closed: list[Candidate]) -> Candidate:
-    """The shortest of the routes within :data:`SAME_TIME` of the quickest (the closed form is
-    no closer than that to the estimator); the first of equals."""
-    fastest = min(c.time_s for c in closed)
-    return min(
-        (c for c in closed if c.time_s <= fastest * (1.0 + SAME_TIME)),
-        key=lambda c: round(c.length_m, 3),
-    )
 
 
 def shortlist_size(area: Polygon, spacing_m: float) -> int:

@@ -21,8 +21,9 @@ and is drawn as airspeed.
 
 The estimator's parts: the vehicle (:mod:`.vehicle`), straight legs in closed form
 (:mod:`.profile`), its motion (:mod:`.motion`), the current it draws (:mod:`.draw`), the way
-home (:mod:`.homing`), the steps replayed (:mod:`.state`, :mod:`.replay`, :mod:`.units`), what
-an estimate says (:mod:`.result`) and the fleet's measured draws (:mod:`.fleet_draws`).
+home (:mod:`.homing`), the steps replayed (:mod:`.state`, :mod:`.replay`, :mod:`.units`; a
+route's units costed kind by kind for the split: :mod:`.repeated`), what an estimate says
+(:mod:`.result`) and the fleet's measured draws (:mod:`.fleet_draws`).
 """
 
 from __future__ import annotations

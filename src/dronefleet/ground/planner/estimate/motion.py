@@ -33,6 +33,9 @@ class _Motion:
     landing: bool = False
     notes: list[str] = field(default_factory=list)
     speed_cap: float | None = None  # the leg's speed when slower than the model's (RTL_SPEED)
+    #: The turn stepped last (see :meth:`_horizontal`): where it began, and where it was after
+    #: its last step (the time before that step, then time, ∫airspeed², n, e, vn, ve).
+    turned: tuple[tuple, tuple] | None = field(default=None, repr=False, compare=False)
 
     # -- horizontal ---------------------------------------------------------------------------
     def _cap_along(self, un: float, ue: float) -> float:
@@ -53,11 +56,25 @@ class _Motion:
             return _CRAWL_MPS
         return min(cap, along)
 
+    def _where(self) -> tuple:
+        """What a turn stepped from here depends on (besides the model and the time)."""
+        return (self.n, self.e, self.vn, self.ve, self.target, self.speed_cap)
+
     def _horizontal(self, duration: float, tol: float | None = None) -> tuple[float, float]:
-        """Fly for ``duration`` s or until within ``tol``; returns (time, ∫airspeed² dt)."""
+        """Fly for ``duration`` s or until within ``tol``; returns (time, ∫airspeed² dt).
+
+        A turn is stepped twice when a ``wait_for_flight`` is: once to find when the vehicle is
+        within the tolerance (a probe, with ``tol``), once flying that long. Its steps are the
+        same both times while each is a whole step (``_TURN_DT_S``), so the flight starts where
+        the probe's last step ended (``turned``), from where the probe began."""
         m, t, a2 = self.model, 0.0, 0.0
         wn, we = m.wind_n_mps, m.wind_e_mps
         w2 = wn * wn + we * we
+        began, t_last = self._where(), -1.0  # t_last: the time before the last turn step
+        turned, self.turned = self.turned, None
+        resume = tol is None and turned is not None and turned[0] == began
+        if resume and turned and duration - turned[1][0] >= _TURN_DT_S:  # all whole steps
+            t_last, t, a2, self.n, self.e, self.vn, self.ve = turned[1]
         while self.target is not None and duration - t > 1e-12:
             tn, te = self.target
             dn, de = tn - self.n, te - self.e
@@ -67,17 +84,9 @@ class _Motion:
             un, ue = (dn / dist, de / dist) if dist > 1e-9 else (0.0, 0.0)
             s = self.vn * un + self.ve * ue
             if math.hypot(self.vn - s * un, self.ve - s * ue) > _TURN_MPS:
-                dt = min(_TURN_DT_S, duration - t)
-                k = Kinematics(self.n, self.e, 0.0)
-                k.vn, k.ve = self.vn, self.ve
-                limits = m.limits
-                if self.speed_cap:
-                    limits = replace(limits, max_speed_mps=self.speed_cap)
-                k.fly_to(tn, te, 0.0, dt, limits, wn, we)
-                self.n, self.e, self.vn, self.ve = k.n, k.e, k.vn, k.ve
-                a2 += ((k.vn - wn) ** 2 + (k.ve - we) ** 2) * dt
-                t += dt
+                t_last, t, a2 = self._turn(duration, tol, t_last, t, a2)
                 continue
+            self._turned(tol, began, t_last, t, a2)
             prof = Profile(dist, s, self._cap_along(un, ue), m.accel_mps2)
             step = duration - t if tol is None else min(prof.time_within(tol), duration - t)
             x, v, v2_step = prof.at(step)
@@ -86,9 +95,45 @@ class _Motion:
             # (v·u - w)² integrated: ∫v² - 2 (u·w) ∫v + |w|² t, with ∫v = x along the leg.
             a2 += v2_step - 2.0 * (un * wn + ue * we) * x + w2 * step
             return t + step, a2
+        self._turned(tol, began, t_last, t, a2)
         if tol is not None:
             return t, a2
         return duration, a2 + w2 * (duration - t)
+
+    def _turn(
+        self, duration: float, tol: float | None, t_last: float, t: float, a2: float
+    ) -> tuple[float, float, float]:
+        """Step a turn with the simulator's position controller while there is speed across
+        the leg (the steps :meth:`_horizontal` would take one by one, in local variables);
+        returns the time before the last step, the time and ∫airspeed² dt."""
+        m, hypot, (tn, te) = self.model, math.hypot, self.target or (self.n, self.e)
+        wn, we = m.wind_n_mps, m.wind_e_mps
+        limits = m.limits
+        if self.speed_cap:
+            limits = replace(limits, max_speed_mps=self.speed_cap)
+        n, e, vn, ve = self.n, self.e, self.vn, self.ve
+        k = Kinematics(n, e, 0.0)  # where the vehicle is, step after step
+        k.vn, k.ve = vn, ve
+        while duration - t > 1e-12:
+            dn, de = tn - n, te - e
+            dist = hypot(dn, de)
+            if tol is not None and dist < tol:
+                break
+            un, ue = (dn / dist, de / dist) if dist > 1e-9 else (0.0, 0.0)
+            s = vn * un + ve * ue
+            if hypot(vn - s * un, ve - s * ue) <= _TURN_MPS:
+                break
+            dt = min(_TURN_DT_S, duration - t)
+            k.fly_to(tn, te, 0.0, dt, limits, wn, we)
+            n, e, vn, ve = k.n, k.e, k.vn, k.ve
+            a2 += ((vn - wn) ** 2 + (ve - we) ** 2) * dt
+            t_last, t = t, t + dt
+        self.n, self.e, self.vn, self.ve = n, e, vn, ve
+        return t_last, t, a2
+
+    def _turned(self, tol: float | None, began: tuple, t_last: float, t: float, a2: float) -> None:
+        if tol is not None and t_last >= 0.0:  # a probe stepped a turn: where its last step ended
+            self.turned = (began, (t_last, t, a2, self.n, self.e, self.vn, self.ve))
 
     # -- vertical -----------------------------------------------------------------------------
     def _land_fast_mps(self) -> float:

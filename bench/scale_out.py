@@ -1,0 +1,355 @@
+"""Telemetry ingestion shared among ground replicas (issue 27, item 4): throughput and CPU per
+message with 1, 2 and 3 replicas' consumers over NATS.
+
+The embedded NATS broker (messaging/nats_broker.py: MQTT for the drones, NATS's own port for the
+grounds) with ``--drones`` N drone users and a ground user; N fake drones
+(bench/ground_capacity.py's fleet, bench/mqtt_load.py: each its own MQTT connection, a 16-field
+``Telemetry`` at 5 Hz and a heartbeat every 5 s, in a process of their own). For K = 1, 2, 3 in
+turn: K consumer processes, each the ground's ingestion as ``dronefleet ground
+--share-ingestion`` runs it (ground/telemetry/shared_ingest.py: the queue group
+``ground-telemetry``, each message read and checked, handed to the ground's TelemetryConnector,
+written in batches to an SQLite store of its own). After ``--warmup`` seconds, for ``--seconds``:
+the telemetry sent, the messages each consumer took and the rows it stored, and its CPU
+(utime + stime of its process) per message taken. The closing note: how many drones (5 Hz) a
+4-host deployment's ingestion carries at the measured cost per message, one replica per host
+given one core. It counts the storing share only: every replica still reads the whole stream
+through its Fleet Inbox (live stream, separation monitor, Identifier), measured by
+bench/ground_capacity.py.
+
+With ``--replicas``, the K consumers are whole ``dronefleet ground --share-ingestion``
+processes instead, replicas on one fresh PostgreSQL database (``--postgres``: a server where
+the user may create databases), each with its own SQLite telemetry store: the stored share
+(rows of ``telemetry_points``, one per message) and the CPU of the whole replica, which also reads
+every message through its inbox, per message the fleet sent. No assertions.
+
+    .venv/bin/python bench/scale_out.py [--drones 1000] [--seconds 30] [--warmup 5]
+    .venv/bin/python bench/scale_out.py --replicas [--drones 100] [--postgres URL]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import multiprocessing
+import os
+import secrets
+import shutil
+import signal
+import sqlite3
+import sys
+import tempfile
+import time
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+from dronefleet.messaging.broker_users import BrokerRole, BrokerUsers
+from dronefleet.messaging.nats_broker import NatsBroker
+from ground_capacity import TELEMETRY, fleet_process
+from mqtt_load import TELEMETRY_HZ, proc_cpu_s
+
+HOSTS = 4  # the deployment of the closing note
+CORE_PER_REPLICA = 1.0  # CPU seconds per second each host gives its replica's ingestion
+TAKEN, STORED = range(2)  # a consumer's shared counters
+POSTGRES = os.environ.get(
+    "DRONEFLEET_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres"
+)
+
+
+def consumer_process(
+    nats_url: str, ground_url: str, store: str, ready: Connection, counters: Any
+) -> None:
+    asyncio.run(_consume(nats_url, ground_url, store, ready, counters))
+
+
+async def _consume(
+    nats_url: str, ground_url: str, store: str, ready: Connection, counters: Any
+) -> None:
+    from dronefleet.ground.inbox import FleetInbox
+    from dronefleet.ground.telemetry.connector import TelemetryConnector
+    from dronefleet.ground.telemetry.shared_ingest import SharedIngest
+    from dronefleet.ground.telemetry.store import open_store
+    from dronefleet.messaging.url import BrokerUrl
+
+    url = BrokerUrl.parse(ground_url)
+    telemetry = open_store(f"sqlite:///{store}")
+    await telemetry.open()
+    # As GroundServices wires it: the connector fed by the shared ingestion, not by the inbox
+    # (never started here: the inbox's whole-stream work is not what this measures).
+    inbox = FleetInbox(url, client_id=f"bench-inbox-{os.getpid()}")
+    connector = await TelemetryConnector(
+        url, telemetry, client_id="bench", inbox=inbox, from_inbox=False
+    ).start()
+    ingest = await SharedIngest(
+        nats_url, url, take=connector.take, name=f"bench-{os.getpid()}"
+    ).start()
+    ready.send("ready")
+    while True:
+        counters[TAKEN], counters[STORED] = ingest.received, connector.stored
+        await asyncio.sleep(0.2)
+
+
+# -- whole replicas (--replicas) ------------------------------------------------------------------
+
+
+async def admin(server: str, sql: str) -> None:
+    import asyncpg
+
+    con = await asyncpg.connect(server, timeout=10)
+    try:
+        await con.execute(sql)
+    finally:
+        await con.close()
+
+
+async def start_replica(
+    broker: NatsBroker, password: str, state: str, folder: Path, name: str, token: str
+) -> tuple[asyncio.subprocess.Process, str]:
+    """The replica's process and its web address (the replicas share their tokens)."""
+    env = {**os.environ, "DRONEFLEET_BROKER_PASSWORD": password}
+    log = open(folder / f"{name}.log", "wb")  # noqa: SIM115, ASYNC230 - the process's
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "dronefleet.cli", "ground",
+        "--broker", f"mqtt://ground@{broker.host}:{broker.port}", "--state", state,
+        "--store", f"sqlite:///{folder / name}.db", "--photo-dir", str(folder / f"{name}-photos"),
+        "--http", "127.0.0.1:0", f"--token={token}",
+        "--share-ingestion", broker.nats_url,
+        stdout=asyncio.subprocess.PIPE, stderr=log, env=env,
+    )  # fmt: skip
+    log.close()
+    assert proc.stdout is not None
+    async with asyncio.timeout(120):
+        while not (line := (await proc.stdout.readline()).decode()).startswith("ground services"):
+            if not line:
+                raise SystemExit(f"{name} did not start: {(folder / f'{name}.log').read_text()}")
+    drain = asyncio.create_task(proc.stdout.read())  # its later output, never read
+    _DRAINS.add(drain)
+    return proc, line.split()[3]
+
+
+async def stream_lag_s(url: str, token: str, drone: str) -> float:
+    """How far behind the replica's inbox is: the live stream's latest lag (receive time minus
+    the message's own timestamp) over a few of ``drone``'s messages; a replica whose CPU figure
+    is low because it was starved shows here."""
+    import orjson
+    import websockets
+
+    ws_url = url.replace("http", "ws", 1) + f"/api/v1/stream?kinds=telemetry&drone={drone}"
+    headers = {"Authorization": f"Bearer {token}"}
+    lags = []
+    async with asyncio.timeout(30), websockets.connect(ws_url, additional_headers=headers) as ws:
+        while len(lags) < 10:
+            lags.append(time.time() - orjson.loads(await ws.recv())["data"]["timestamp"])
+    return max(lags[-3:])
+
+
+_DRAINS: set[asyncio.Task[bytes]] = set()
+
+
+def lat_rows(path: Path) -> int:
+    """Messages stored (each has one ``lat``)."""
+    if not path.exists():
+        return 0
+    with sqlite3.connect(path) as db:
+        return int(db.execute("SELECT count(*) FROM telemetry_points").fetchone()[0])
+
+
+async def replicas_size(
+    k: int,
+    broker: NatsBroker,
+    password: str,
+    folder: Path,
+    fleet_counters: Any,
+    args: argparse.Namespace,
+) -> tuple[int, float, float]:
+    name = f"dronefleet_scale_out_{secrets.token_hex(4)}"
+    await admin(args.postgres, f'CREATE DATABASE "{name}"')
+    state = f"{args.postgres.rsplit('/', 1)[0]}/{name}"
+    procs, webs = [], []
+    token = secrets.token_urlsafe(24)
+    try:
+        for i in range(k):
+            proc, url = await start_replica(broker, password, state, folder, f"k{k}-r{i}", token)
+            procs.append(proc)
+            webs.append(url)
+        stores = [folder / f"k{k}-r{i}.db" for i in range(k)]
+        await asyncio.sleep(args.warmup)
+        sent0 = fleet_counters[TELEMETRY]
+        rows0 = [lat_rows(s) for s in stores]
+        cpu0 = [proc_cpu_s(p.pid) for p in procs]
+        began = time.monotonic()
+        await asyncio.sleep(args.seconds)
+        window = time.monotonic() - began
+        cpu = [proc_cpu_s(p.pid) - c for p, c in zip(procs, cpu0, strict=True)]
+        rows = [lat_rows(s) - r for s, r in zip(stores, rows0, strict=True)]
+        sent = fleet_counters[TELEMETRY] - sent0
+        lags = [await stream_lag_s(url, token, "D00000") for url in webs]
+    finally:
+        for proc in procs:
+            if proc.returncode is None:
+                proc.send_signal(signal.SIGTERM)
+        for proc in procs:
+            try:
+                async with asyncio.timeout(20):
+                    await proc.wait()
+            except TimeoutError:
+                proc.kill()
+                await proc.wait()
+        await admin(args.postgres, f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+    total = sum(rows)
+    print(f"{k} replica(s): sent {sent / window:,.0f} msg/s, stored {total / window:,.0f} msg/s "
+          f"({100 * total / max(sent, 1):.1f} % of sent)")  # fmt: skip
+    for i in range(k):
+        print(f"  replica {i + 1}: stored {rows[i] / window:,.0f} msg/s, CPU {cpu[i] / window:.2f} "
+              f"core, {cpu[i] / max(sent, 1) * 1e3:.3f} ms per message sent; live stream "
+              f"{lags[i]:.2f} s behind")  # fmt: skip
+    per_sent = max(cpu) / max(sent, 1)
+    return k, total / window, per_sent
+
+
+def stored_rows(path: Path) -> int:
+    """Messages stored (a row each)."""
+    with sqlite3.connect(path) as db:
+        return int(db.execute("SELECT count(*) FROM telemetry_points").fetchone()[0])
+
+
+async def run(args: argparse.Namespace) -> None:
+    spawn = multiprocessing.get_context("spawn")
+    users = BrokerUsers()
+    ground_password = users.add("ground", BrokerRole.GROUND)
+    drones = [(f"D{i:05d}", users.add(f"D{i:05d}", BrokerRole.DRONE)) for i in range(args.drones)]
+    folder = Path(tempfile.mkdtemp(prefix="dronefleet-scale-out-"))
+    broker = NatsBroker(users=users)
+    await broker.start()
+    ground_url = f"mqtt://ground:{ground_password}@{broker.host}:{broker.port}"
+    here, there = spawn.Pipe()
+    stop, fleet_counters = spawn.Event(), spawn.Array("q", 4, lock=False)
+    fleet = spawn.Process(
+        target=fleet_process,
+        args=(broker.port, drones, 200.0, there, stop, fleet_counters),
+        daemon=True,
+    )
+    fleet.start()
+    _, connected, failed, seconds = await asyncio.to_thread(here.recv)
+    print(f"{connected} drones connected in {seconds:.1f} s ({failed} failed); "
+          f"offered {connected * TELEMETRY_HZ} telemetry messages/s")  # fmt: skip
+    rows: list[tuple[int, float, float]] = []
+    try:
+        for k in (1, 2, 3):
+            if args.replicas:
+                size = replicas_size(k, broker, ground_password, folder, fleet_counters, args)
+            else:
+                size = one_size(k, spawn, broker, ground_url, folder, fleet_counters, args)
+            rows.append(await size)
+    finally:
+        stop.set()
+        fleet.join(10)
+        await broker.stop()
+        shutil.rmtree(folder, ignore_errors=True)
+    print()
+    if args.replicas:
+        # Every replica reads the whole stream: its cost per message sent is a part every
+        # replica pays (the inbox) and a part shared (storing): cost(K) = whole + share / K,
+        # fitted through K = 1 and 3. The fleet one replica per host carries is bounded by it.
+        c1, c3 = rows[0][2], rows[2][2]
+        share = (c1 - c3) * 3 / 2
+        whole = c1 - share
+        at_hosts = whole + share / HOSTS
+        drones = CORE_PER_REPLICA / at_hosts / TELEMETRY_HZ
+        print(f"a whole replica's CPU per message the fleet sends: {c1 * 1e3:.3f} ms alone, "
+              f"{c3 * 1e3:.3f} ms with 3: {whole * 1e3:.3f} ms every replica pays (the inbox)"
+              f" + {share * 1e3:.3f} ms shared (storing)")  # fmt: skip
+        print(f"{HOSTS} replicas, one per host given {CORE_PER_REPLICA:g} core: "
+              f"{at_hosts * 1e3:.3f} ms each per message, {drones:,.0f} drones at "
+              f"{TELEMETRY_HZ} Hz (each replica still reads the whole stream)")  # fmt: skip
+        return
+    # The cost at the highest rate per consumer (one consumer takes everything): at scale each
+    # replica takes thousands of messages a second, where fixed costs (timers, batch flushes)
+    # weigh least; the worst of every size bounds it from above (a loaded host inflates it).
+    for what, per_message in (("one consumer taking all", rows[0][2]),
+                              ("the worst of 1, 2, 3", max(r[2] for r in rows))):  # fmt: skip
+        per_core = 1 / per_message
+        drones = HOSTS * CORE_PER_REPLICA * per_core / TELEMETRY_HZ
+        print(f"at {what}'s {per_message * 1e3:.3f} ms/message ({per_core:,.0f} per core-second):"
+              f" {HOSTS} hosts, one replica each given {CORE_PER_REPLICA:g} core for its share,"
+              f" take {HOSTS * per_core:,.0f} messages/s: {drones:,.0f} drones at "
+              f"{TELEMETRY_HZ} Hz")  # fmt: skip
+    print("  (ingestion only: each replica still reads the whole stream through its inbox)")
+
+
+async def one_size(
+    k: int,
+    spawn: Any,
+    broker: NatsBroker,
+    ground_url: str,
+    folder: Path,
+    fleet_counters: Any,
+    args: argparse.Namespace,
+) -> tuple[int, float, float]:
+    procs, counters, stores = [], [], []
+    joined = 0  # telemetry sent before the first consumer was in the group
+    for i in range(k):
+        store = folder / f"k{k}-{i}.db"
+        mine = spawn.Array("q", 2, lock=False)
+        here, there = spawn.Pipe()
+        proc = spawn.Process(
+            target=consumer_process,
+            args=(broker.nats_url, ground_url, str(store), there, mine),
+            daemon=True,
+        )
+        proc.start()
+        await asyncio.to_thread(here.recv)
+        if i == 0:
+            joined = fleet_counters[TELEMETRY]
+        procs.append(proc)
+        counters.append(mine)
+        stores.append(store)
+    try:
+        await asyncio.sleep(args.warmup)
+        sent0 = fleet_counters[TELEMETRY]
+        taken0 = [c[TAKEN] for c in counters]
+        cpu0 = [proc_cpu_s(p.pid) for p in procs]
+        began = time.monotonic()
+        await asyncio.sleep(args.seconds)
+        window = time.monotonic() - began
+        cpu = [proc_cpu_s(p.pid) - c for p, c in zip(procs, cpu0, strict=True)]
+        taken = [c[TAKEN] - t for c, t in zip(counters, taken0, strict=True)]
+        sent = fleet_counters[TELEMETRY] - sent0
+        # Sent since the first consumer joined and not taken yet: in flight, queued, or lost
+        # (the counters lag by up to 0.2 s: about a fifth of a second's messages).
+        behind = fleet_counters[TELEMETRY] - joined - sum(c[TAKEN] for c in counters)
+        await asyncio.sleep(1.5)  # the last batches written
+        rows = [stored_rows(s) for s in stores]
+    finally:
+        for proc in procs:
+            proc.terminate()
+            proc.join(10)
+    per = [c / max(t, 1) for c, t in zip(cpu, taken, strict=True)]
+    total = sum(taken)
+    print(f"{k} replica(s): sent {sent / window:,.0f} msg/s, taken {total / window:,.0f} msg/s "
+          f"({100 * total / max(sent, 1):.1f} % of sent); behind at the end: {behind:,} messages "
+          f"({behind / max(sent / window, 1):.2f} s of sending)")  # fmt: skip
+    for i in range(k):
+        print(f"  replica {i + 1}: {taken[i] / window:,.0f} msg/s, CPU {cpu[i] / window:.2f} "
+              f"core, {per[i] * 1e3:.3f} ms/message; {rows[i]:,} rows stored in all")  # fmt: skip
+    overall = sum(cpu) / max(total, 1)
+    print(f"  all {k}: CPU {sum(cpu) / window:.2f} core, {overall * 1e3:.3f} ms/message")
+    return k, total / window, overall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--drones", type=int, default=1000)
+    parser.add_argument("--seconds", type=float, default=30.0)
+    parser.add_argument("--warmup", type=float, default=5.0)
+    parser.add_argument("--replicas", action="store_true", help="whole dronefleet ground replicas")
+    parser.add_argument("--postgres", default=POSTGRES, help="a server to make the state on")
+    args = parser.parse_args()
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"load average before: {load}, {os.cpu_count()} cores")
+    asyncio.run(run(args))
+    print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()
