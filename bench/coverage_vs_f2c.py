@@ -126,7 +126,7 @@ def fields_table() -> None:
     head = (
         f"{'field':<30} {'mode':<5} {'tgt%':>5} {'path m':>7} {'F2C m':>6} {'ratio':>6}"
         f" {'flight s':>8} {'cov %':>7} {'F2C %':>6} {'turns':>5} {'F2C':>4} {'ms':>6}"
-        f" {'ha':>5}  goal"
+        f" {'ha':>5} {'pattern':<7}  goal"
     )
     print(head)
     print("-" * len(head))
@@ -153,7 +153,7 @@ def fields_table() -> None:
                     f" {row['path']:>7.0f} {f2c_path} {ratio} {flight_s(plan):>8.0f}"
                     f" {row['coverage']:>7.2f} {f2c_cov} {turns(plan):>5}"
                     f" {'' if f2c_turns is None else f2c_turns:>4} {ms:>6.1f}"
-                    f" {plan.area_m2 / 1e4:>5.2f}  {verdict(row, field)}"
+                    f" {plan.area_m2 / 1e4:>5.2f} {plan.pattern:<7}  {verdict(row, field)}"
                 )
 
 

@@ -57,7 +57,8 @@ def plan_mission(
         if plan
         else route_of(work),
         "area_m2": round(plan.area_m2, 1) if plan else None,
-        "angle_deg": getattr(plan, "angle_deg", None),
+        "angle_deg": plan.angle_deg if plan and plan.pattern == "swaths" else None,
+        "pattern": plan.pattern if plan else None,
         "spacing_m": getattr(plan, "spacing_m", None),
         # What the coverage target left uncovered (issue 30): how much and where.
         "uncovered_m2": round(plan.uncovered_m2, 1) if plan else None,

@@ -46,6 +46,7 @@ class Candidate:
     length_m: float = 0.0
     gaps: list[Gap] | None = None  # what the route leaves, before spurs
     guess: float = 0.0  # its time with a spur to each gap (seconds)
+    rings: bool = False  # the contour route (:mod:`.contour`), not swaths at ``angle``
 
     @property
     def key(self) -> tuple[float, float]:

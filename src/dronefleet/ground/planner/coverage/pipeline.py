@@ -44,6 +44,7 @@ from shapely.geometry import LineString, Point, Polygon
 
 from dronefleet.ground.planner.coverage.angle import AngleChooser
 from dronefleet.ground.planner.coverage.candidate import (
+    SAME_TIME,
     Candidate,
     Over,
     beaten,
@@ -51,6 +52,7 @@ from dronefleet.ground.planner.coverage.candidate import (
     quicker_live,
     route_length,
 )
+from dronefleet.ground.planner.coverage.contour import contour_points, contour_route
 from dronefleet.ground.planner.coverage.cost import RouteTime
 from dronefleet.ground.planner.coverage.decompose import BoustrophedonDecomposer
 from dronefleet.ground.planner.coverage.ends import trimmed
@@ -82,6 +84,11 @@ CLOSED = 2
 #: Most swaths a route may have for its gaps to be closed by strokes the solver weaves in (a
 #: second solve and path); past that a gap costs little beside the route, and spurs do.
 STROKES_UP_TO = 60
+#: The sweep angle a contour route is given: 90° is the local plane itself (no rotation).
+CONTOUR_ANGLE = 90.0
+#: Outlines with more vertices than this are not offered rings: a traced 240-vertex outline's
+#: rings and their gaps took 115 ms more to plan and never won.
+CONTOUR_VERTICES = 100
 #: Largest area (in spacing-squares, see SHORTLIST) whose gaps are closed by detours first.
 DETOUR_SQUARES = 260
 
@@ -93,6 +100,7 @@ class CoveragePipeline:
     orderer: WholeFieldOrderer = field(default_factory=WholeFieldOrderer)
     timing: RouteTime = field(default_factory=RouteTime)
     fill_gaps: bool = True
+    contours: bool = True  # small areas may be flown ring by ring (:mod:`.contour`)
     detours: bool = True  # gaps closed by bending the route's legs, not by spurs alone
 
     def plan(self, spec: AreaSpec) -> CoveragePlan:
@@ -131,6 +139,8 @@ class CoveragePipeline:
             best = found[0]
         else:
             best = self._search(spec, found, filler)
+        if self.contours and spec.angle_deg is None and spec.grid == Grid.INSET:
+            best = self._or_contour(spec, area, first, best, filler)
         if filler is not None:  # after the choice: pulling a route's ends in only shortens it
             ends = replace(filler, builder=best.builder)
             best.points, best.left = trimmed(best.points, best.sweep_area, best.left, ends)
@@ -149,7 +159,7 @@ class CoveragePipeline:
             swaths=[
                 LineString([from_sweep_xy(*p.start, angle), from_sweep_xy(*p.end, angle)])
                 for p in best.routed.passes
-                if isinstance(p, Pass)
+                if isinstance(p, Pass) or best.rings  # a ring's sides are its passes
             ],
             points=local,
             waypoints=waypoints,
@@ -157,6 +167,7 @@ class CoveragePipeline:
             cells=len(best.cells),
             uncovered=left,
             uncovered_rings=[_rings(projection, g) for g in left],
+            pattern="rings" if best.rings else "swaths",
         )
 
     def layout(
@@ -230,6 +241,40 @@ class CoveragePipeline:
                 self._cost(spec, c)
             closed.append(c)
         return chosen(closed)
+
+    def _or_contour(
+        self,
+        spec: AreaSpec,
+        area: Polygon,
+        first: tuple[float, float],
+        best: Candidate,
+        filler: GapFiller | None,
+    ) -> Candidate:
+        """The contour route (:mod:`.contour`) where it is clearly quicker than ``best``, the
+        swaths' route: by more than :data:`~.candidate.SAME_TIME`, the closed form's margin.
+        Small areas only (:data:`DETOUR_SQUARES`): a ring's gaps are closed by detours."""
+        builder = best.builder
+        vertices = len(area.exterior.coords) + sum(len(r.coords) for r in area.interiors)
+        if area.area / builder.spacing_m**2 > DETOUR_SQUARES or vertices > CONTOUR_VERTICES:
+            return best
+        routed = contour_route(area, builder.spacing_m, first)
+        if routed is None:
+            return best
+        ring = Candidate(CONTOUR_ANGLE, area, [], builder, first, routed, hold_s=best.hold_s)
+        ring.rings = True
+        ring.points = contour_points(builder, routed)
+        self._cost(spec, best)
+        beat = best.time_s * (1.0 - SAME_TIME)
+
+        def over(points: list[RoutePoint]) -> bool:
+            return self.timing.of(points, ring.hold_s) >= beat
+
+        if over(ring.points):
+            return best
+        if filler is not None:
+            self.close_gaps(ring, filler, over)
+        self._cost(spec, ring)
+        return ring if ring.time_s < beat else best
 
     def filler(self, spec: AreaSpec, area: Polygon, spacing: float) -> GapFiller | None:
         """The gap filler for ``spec``'s coverage target (None when gaps are left open)."""

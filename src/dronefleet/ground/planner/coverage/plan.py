@@ -34,7 +34,7 @@ class CoveragePlan:
 
     spec: AreaSpec
     origin: LLA  # the local plane's origin (x east, y north, metres)
-    angle_deg: float  # swath bearing, degrees clockwise from north
+    angle_deg: float  # swath bearing, degrees clockwise from north (rings: none, 90)
     spacing_m: float
     trigger_distance_m: float | None  # fly-through only
     local_polygon: Polygon
@@ -46,6 +46,7 @@ class CoveragePlan:
     extras: dict[str, Any] = field(default_factory=dict)
     uncovered: list[Polygon] = field(default_factory=list)  # those pieces, local plane
     uncovered_rings: list[list[tuple[float, float]]] = field(default_factory=list)  # [lat, lon]
+    pattern: str = "swaths"  # or "rings": the outline flown inward (coverage/contour.py)
 
     @property
     def coverage_pct(self) -> float:
@@ -127,7 +128,8 @@ class CoveragePlan:
         return {
             "waypoints": len(self.waypoints),
             "photos": self.photo_count,
-            "angle_deg": round(self.angle_deg, 3),
+            "angle_deg": round(self.angle_deg, 3) if self.pattern == "swaths" else None,
+            "pattern": self.pattern,
             "spacing_m": self.spacing_m,
             "trigger_distance_m": self.trigger_distance_m,
             "area_m2": round(self.area_m2, 1),
