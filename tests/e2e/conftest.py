@@ -138,6 +138,12 @@ def start_demo(
     return demo
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """``fleet_scale`` tests run last: the session's demo flies on while they take minutes, and
+    the tests after them would find its batteries lower than they were written for."""
+    items.sort(key=lambda item: item.get_closest_marker("fleet_scale") is not None)
+
+
 @pytest.fixture(scope="session")
 def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Demo]:
     """``dronefleet demo`` with 3 simulated drones, no demo mission, on a free loopback port."""

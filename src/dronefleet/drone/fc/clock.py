@@ -13,13 +13,13 @@ between stamps past the last one: a host that stalls the autopilot (a simulator 
 machine) stalls its stamps too, and the clock had run on at the old rate meanwhile, 2.4 vehicle
 s ahead of the simulated vehicle after a 0.12 s stall at 20x (CI, the UAVTalk flight test).
 Across a silence (the autopilot's link lost: no stamp for :data:`_GAP_WALL_S`) ``now()`` runs on
-at the last rate from where it held, and what it said stays said: the first stamp after the silence takes the clock
-on from there (issue 26). Before, a reboot made the clock add only the boot time seen before
-the silence, so it stood still until the new boot time caught up with what it had already
-reported: a drone whose autopilot rebooted mid-flight sent no heartbeat for as long as the
-autopilot had been away (heartbeats wait on this clock), and was called lost. A reboot that is
-not seen as a step back (the autopilot was away longer than it had been up) is caught the same
-way: the stamp after the silence is behind what the clock said.
+at the last rate from where it held, and what it said stays said: the first stamp after the
+silence takes the clock on from there (issue 26). Before, a reboot made the clock add only the
+boot time seen before the silence, so it stood still until the new boot time caught up with what
+it had already reported: a drone whose autopilot rebooted mid-flight sent no heartbeat for as
+long as the autopilot had been away (heartbeats wait on this clock), and was called lost. A
+reboot that is not seen as a step back (the autopilot was away longer than it had been up) is
+caught the same way: the stamp after the silence is behind what the clock said.
 """
 
 from __future__ import annotations
