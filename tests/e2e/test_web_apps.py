@@ -24,7 +24,7 @@ pytestmark = pytest.mark.e2e
 def test_an_area_drawn_in_the_planner_is_flown_to_completion(open_page, screenshot, shared):
     page, console = open_page("planner")
     page.wait_for_selector("#plan-drone-QUAD_1")
-    page.wait_for_timeout(500)  # the map centres on the fleet
+    page.wait_for_selector("#planner-map[data-fitted='1']")  # centred on the fleet, settled
     click_map(page, "#planner-map", [(-80, -80), (80, -80), (80, 80), (-80, 80)])
     page.click("#draw-finish")
     assert len(page.input_value("#plan-polygon").splitlines()) == 4

@@ -18,7 +18,7 @@ def test_a_survey_flown_to_completion_leaves_every_drone_landed_at_home_and_disa
     page, console = open_page("planner")
     for drone in DRONES:
         page.wait_for_selector(f"#plan-drone-{drone}")
-    page.wait_for_timeout(500)  # the map centres on the fleet
+    page.wait_for_selector("#planner-map[data-fitted='1']")  # centred on the fleet, settled
     click_map(page, "#planner-map", [(-60, -60), (60, -60), (60, 60), (-60, 60)])
     page.click("#draw-finish")
     page.fill("#plan-spacing", "15")

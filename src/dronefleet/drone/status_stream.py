@@ -148,15 +148,28 @@ class StatusStream:
                 return None
 
     async def _heartbeats(self) -> None:
-        topic_name = self.controller.topic(Channel.HEARTBEATS)
         while True:
-            try:
-                await self.controller.client.publish(
-                    topic_name, self.heartbeat(), qos=QOS_STREAM, disposable=True
-                )
-            except Exception:
-                log.exception("%s: heartbeat failed", self.drone_id)
+            await self._beat()
             await self._until_next_beat()
+
+    async def _beat(self) -> None:
+        """Publish a heartbeat now (a failure is logged: the next one is due anyway)."""
+        try:
+            await self.controller.client.publish(
+                self.controller.topic(Channel.HEARTBEATS),
+                self.heartbeat(),
+                qos=QOS_STREAM,
+                disposable=True,
+            )
+        except Exception:
+            log.exception("%s: heartbeat failed", self.drone_id)
+
+    def _state_changed(self) -> bool:
+        """Whether the flight state or the mode differs from the last heartbeat's."""
+        if self._told is None:
+            return False
+        state = self.fc.state()
+        return (flight_state(state), str(state.mode)) != self._told
 
     async def _until_next_beat(self) -> None:
         """One heartbeat interval (vehicle seconds), or less when the state changes meanwhile.
@@ -177,25 +190,12 @@ class StatusStream:
         that says the drone is down and disarmed, on the same link, so the ground never shows a
         mission completed by a drone it still believes armed (CI: a copter read ``armed`` right
         after its mission completed, the heartbeat's wake-up one telemetry sample behind)."""
-        state = self.fc.state()
-        if self._told is None or (flight_state(state), str(state.mode)) == self._told:
-            return
-        try:
-            await self.controller.client.publish(
-                self.controller.topic(Channel.HEARTBEATS),
-                self.heartbeat(),
-                qos=QOS_STREAM,
-                disposable=True,
-            )
-        except Exception:
-            log.exception("%s: heartbeat failed", self.drone_id)
+        if self._state_changed():
+            await self._beat()
 
     def _note_state(self) -> None:
         """Wake the heartbeat loop when the flight state or the mode differs from the last beat."""
-        if self._told is None:
-            return
-        state = self.fc.state()
-        if (flight_state(state), str(state.mode)) != self._told:
+        if self._state_changed():
             self._beat_now.set()
 
     # -- telemetry ---------------------------------------------------------------------------

@@ -418,7 +418,11 @@ export async function mount(root, ctx) {
       }
       markers.get(d.drone_id).setLatLng(at).setIcon(droneIcon(d));
       if (s.missionId && d.mission_id && d.mission_id.startsWith(s.missionId)) trails.get(d.drone_id).addLatLng(at);
-      if (!fitted) { map.setView(at, 19); fitted = true; }
+      if (!fitted) {
+        map.setView(at, 19);
+        fitted = true;
+        map.getContainer().dataset.fitted = "1"; // the view moves no more by itself (tests wait)
+      }
     });
   }
 
