@@ -48,12 +48,15 @@ from dronefleet.messaging.nats_broker import NatsBroker
 from ground_capacity import TELEMETRY, fleet_process
 from mqtt_load import TELEMETRY_HZ, proc_cpu_s
 
+# The tests' PostgreSQL helpers: the server CI runs (DRONEFLEET_TEST_POSTGRES names another)
+# and a database of the run's own, dropped after.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+from support.postgres import SHARED, fresh_database_async
+
 HOSTS = 4  # the deployment of the closing note
 CORE_PER_REPLICA = 1.0  # CPU seconds per second each host gives its replica's ingestion
 TAKEN, STORED = range(2)  # a consumer's shared counters
-POSTGRES = os.environ.get(
-    "DRONEFLEET_TEST_POSTGRES", "postgresql://postgres@127.0.0.1:5432/postgres"
-)
 
 
 def consumer_process(
@@ -90,16 +93,6 @@ async def _consume(
 
 
 # -- whole replicas (--replicas) ------------------------------------------------------------------
-
-
-async def admin(server: str, sql: str) -> None:
-    import asyncpg
-
-    con = await asyncpg.connect(server, timeout=10)
-    try:
-        await con.execute(sql)
-    finally:
-        await con.close()
 
 
 async def start_replica(
@@ -162,9 +155,19 @@ async def replicas_size(
     fleet_counters: Any,
     args: argparse.Namespace,
 ) -> tuple[int, float, float]:
-    name = f"dronefleet_scale_out_{secrets.token_hex(4)}"
-    await admin(args.postgres, f'CREATE DATABASE "{name}"')
-    state = f"{args.postgres.rsplit('/', 1)[0]}/{name}"
+    async with fresh_database_async(args.postgres, "dronefleet_scale_out") as state:
+        return await _replicas_on(state, k, broker, password, folder, fleet_counters, args)
+
+
+async def _replicas_on(
+    state: str,
+    k: int,
+    broker: NatsBroker,
+    password: str,
+    folder: Path,
+    fleet_counters: Any,
+    args: argparse.Namespace,
+) -> tuple[int, float, float]:
     procs, webs = [], []
     token = secrets.token_urlsafe(24)
     try:
@@ -195,7 +198,6 @@ async def replicas_size(
             except TimeoutError:
                 proc.kill()
                 await proc.wait()
-        await admin(args.postgres, f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
     total = sum(rows)
     print(f"{k} replica(s): sent {sent / window:,.0f} msg/s, stored {total / window:,.0f} msg/s "
           f"({100 * total / max(sent, 1):.1f} % of sent)")  # fmt: skip
@@ -343,7 +345,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--warmup", type=float, default=5.0)
     parser.add_argument("--replicas", action="store_true", help="whole dronefleet ground replicas")
-    parser.add_argument("--postgres", default=POSTGRES, help="a server to make the state on")
+    parser.add_argument("--postgres", default=SHARED, help="a server to make the state on")
     args = parser.parse_args()
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"load average before: {load}, {os.cpu_count()} cores")

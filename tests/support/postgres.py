@@ -17,7 +17,7 @@ import secrets
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
 
 import asyncpg
@@ -46,17 +46,38 @@ async def _admin(server: str, sql: str) -> None:
         await con.close()
 
 
+async def _create(server: str, prefix: str) -> tuple[str, str]:
+    """A new empty database on ``server``: its name and URL."""
+    name = f"{prefix}_{secrets.token_hex(5)}"
+    await _admin(server, f'CREATE DATABASE "{name}"')
+    return name, f"{server.rsplit('/', 1)[0]}/{name}"
+
+
+async def _drop(server: str, name: str) -> None:
+    with contextlib.suppress(Exception):
+        await _admin(server, f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+
+
 @contextlib.contextmanager
-def fresh_database(server: str = SHARED) -> Iterator[str]:
+def fresh_database(server: str = SHARED, prefix: str = "dronefleet_test") -> Iterator[str]:
     """A new empty database on ``server``; its URL. Dropped after."""
-    name = f"dronefleet_test_{secrets.token_hex(5)}"
-    asyncio.run(_admin(server, f'CREATE DATABASE "{name}"'))
-    base = server.rsplit("/", 1)[0]
+    name, url = asyncio.run(_create(server, prefix))
     try:
-        yield f"{base}/{name}"
+        yield url
     finally:
-        with contextlib.suppress(Exception):
-            asyncio.run(_admin(server, f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+        asyncio.run(_drop(server, name))
+
+
+@contextlib.asynccontextmanager
+async def fresh_database_async(
+    server: str = SHARED, prefix: str = "dronefleet_test"
+) -> AsyncIterator[str]:
+    """:func:`fresh_database` inside an event loop (bench/scale_out.py)."""
+    name, url = await _create(server, prefix)
+    try:
+        yield url
+    finally:
+        await _drop(server, name)
 
 
 class OwnPostgres:

@@ -254,8 +254,7 @@ class CoveragePipeline:
         swaths' route: by more than :data:`~.candidate.SAME_TIME`, the closed form's margin.
         Small areas only (:data:`DETOUR_SQUARES`): a ring's gaps are closed by detours."""
         builder = best.builder
-        vertices = len(area.exterior.coords) + sum(len(r.coords) for r in area.interiors)
-        if area.area / builder.spacing_m**2 > DETOUR_SQUARES or vertices > CONTOUR_VERTICES:
+        if area.area / builder.spacing_m**2 > DETOUR_SQUARES or _vertices(area) > CONTOUR_VERTICES:
             return best
         routed = contour_route(area, builder.spacing_m, first)
         if routed is None:
@@ -362,11 +361,15 @@ def shortlist_size(area: Polygon, spacing_m: float) -> int:
     """How many angles to plan to the end for an area (see :data:`SHORTLIST`): one for a traced
     outline (over :data:`TRACED_VERTICES`), as before issue 30 — closing the gaps of a 2000-vertex
     comb or gear at a second angle took seconds, past issue 11's budget."""
-    vertices = len(area.exterior.coords) + sum(len(r.coords) for r in area.interiors)
-    if vertices > TRACED_VERTICES:
+    if _vertices(area) > TRACED_VERTICES:
         return 1
     squares = area.area / (spacing_m * spacing_m)
     return next((size for most, size in SHORTLIST if squares <= most), 1)
+
+
+def _vertices(area: Polygon) -> int:
+    """The corners of an area's outline and holes (each ring's closing one counted)."""
+    return len(area.exterior.coords) + sum(len(r.coords) for r in area.interiors)
 
 
 def _hold_s(spec: AreaSpec) -> float:
