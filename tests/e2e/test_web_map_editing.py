@@ -31,14 +31,17 @@ def centre(page, selector: str) -> tuple[float, float]:
     return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
 
 
-def drag(page, start: tuple[float, float], by: tuple[float, float], field: str) -> None:
-    """Drag the map from ``start`` by ``by`` pixels, then wait until the form's ``field`` has
-    changed (a fixed 150 ms wait read the old value when the browser was slow)."""
+def drag(page, handle: str, by: tuple[float, float], field: str) -> None:
+    """Drag the map's ``handle`` by ``by`` pixels, then wait until the form's ``field`` has
+    changed. The mouse goes to the handle by Playwright's hover, which waits until the handle is
+    visible, still and uncovered (a press at coordinates measured before, with the mouse, went
+    to whatever lay there then: twice in CI the fence stayed as typed)."""
     before = page.input_value(field)
-    page.mouse.move(*start)
+    page.locator(handle).hover()
+    x, y = centre(page, handle)
     page.mouse.down()
-    page.mouse.move(start[0] + by[0] / 2, start[1] + by[1] / 2, steps=5)
-    page.mouse.move(start[0] + by[0], start[1] + by[1], steps=5)
+    page.mouse.move(x + by[0] / 2, y + by[1] / 2, steps=5)
+    page.mouse.move(x + by[0], y + by[1], steps=5)
     page.mouse.up()
     page.wait_for_function(
         "([f, v]) => document.querySelector(f).value !== v", arg=[field, before], timeout=10_000
@@ -88,7 +91,7 @@ def test_a_dragged_corner_changes_the_area_the_ground_previews(open_page, screen
     assert same(before["sent"]["area"]["polygon"], corners(page, "#plan-polygon"))
     # Drag the third corner (bottom right) 60 px further right and down: a bigger area.
     old = corners(page, "#plan-polygon")
-    drag(page, centre(page, vertex(page, 2)), (60, 60), "#plan-polygon")
+    drag(page, vertex(page, 2), (60, 60), "#plan-polygon")
     new = corners(page, "#plan-polygon")
     assert len(new) == 4 and new[:2] == old[:2] and new[3] == old[3]
     assert new[2][0] < old[2][0] and new[2][1] > old[2][1], (old[2], new[2])  # south-east
@@ -141,7 +144,7 @@ def test_the_previewed_route_has_a_colour_per_drone_and_a_legend(open_page, scre
         )
     screenshot(page, "planner-route-per-drone")
     # A corner moved: the old route no longer describes the shape, so it goes.
-    drag(page, centre(page, vertex(page, 0)), (-30, 0), "#plan-polygon")
+    drag(page, vertex(page, 0), (-30, 0), "#plan-polygon")
     page.wait_for_selector("#route-legend", state="hidden")
     assert page.locator("#planner-map path.route-share").count() == 0
     console.assert_clean()
@@ -158,7 +161,7 @@ def test_a_fence_corner_a_waypoint_and_a_rally_point_are_dragged(open_page):
     page.wait_for_function(
         "() => document.querySelectorAll('#planner-map .marker-icon').length === 6"
     )
-    drag(page, centre(page, vertex(page, 0)), (-40, 0), "#plan-fence")
+    drag(page, vertex(page, 0), (-40, 0), "#plan-fence")
     moved = corners(page, "#plan-fence")
     assert moved[1:] == fence[1:] and moved[0][1] < fence[0][1] - 1e-5, moved
     # A step list's place: a numbered pin, dragged; the step's latitude and longitude follow.
@@ -168,7 +171,7 @@ def test_a_fence_corner_a_waypoint_and_a_rally_point_are_dragged(open_page):
     page.wait_for_selector(pin)
     lat = float(page.input_value("#step-list input[data-param='lat']"))
     lon = float(page.input_value("#step-list input[data-param='lon']"))
-    drag(page, centre(page, pin), (50, 50), "#step-list input[data-param='lat']")
+    drag(page, pin, (50, 50), "#step-list input[data-param='lat']")
     assert float(page.input_value("#step-list input[data-param='lat']")) < lat - 1e-5
     assert float(page.input_value("#step-list input[data-param='lon']")) > lon + 1e-5
     # A rally point: added by a click, dragged, deleted by a right-click.
@@ -178,7 +181,7 @@ def test_a_fence_corner_a_waypoint_and_a_rally_point_are_dragged(open_page):
     rally = "#planner-map .rally-marker"
     page.wait_for_selector(rally)
     (before,) = page.input_value("#plan-rally").splitlines()
-    drag(page, centre(page, rally), (0, -40), "#plan-rally")
+    drag(page, rally, (0, -40), "#plan-rally")
     (after,) = page.input_value("#plan-rally").splitlines()
     assert float(after.split(",")[0]) > float(before.split(",")[0]) + 1e-5, (before, after)
     assert after.split(",")[2] == before.split(",")[2]  # the height stays
