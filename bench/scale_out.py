@@ -96,9 +96,16 @@ async def _consume(
 
 
 async def start_replica(
-    broker: NatsBroker, password: str, state: str, folder: Path, name: str, token: str
+    broker: NatsBroker,
+    password: str,
+    state: str,
+    folder: Path,
+    name: str,
+    token: str,
+    sharing: list[str],
 ) -> tuple[asyncio.subprocess.Process, str]:
-    """The replica's process and its web address (the replicas share their tokens)."""
+    """The replica's process and its web address (the replicas share their tokens); ``sharing``
+    is how the replicas share the fleet (``--share-ingestion URL`` or ``--partition-fleet``)."""
     env = {**os.environ, "DRONEFLEET_BROKER_PASSWORD": password}
     log = open(folder / f"{name}.log", "wb")  # noqa: SIM115, ASYNC230 - the process's
     proc = await asyncio.create_subprocess_exec(
@@ -106,7 +113,7 @@ async def start_replica(
         "--broker", f"mqtt://ground@{broker.host}:{broker.port}", "--state", state,
         "--store", f"sqlite:///{folder / name}.db", "--photo-dir", str(folder / f"{name}-photos"),
         "--http", "127.0.0.1:0", f"--token={token}",
-        "--share-ingestion", broker.nats_url,
+        *sharing,
         stdout=asyncio.subprocess.PIPE, stderr=log, env=env,
     )  # fmt: skip
     log.close()
@@ -134,6 +141,19 @@ async def stream_lag_s(url: str, token: str, drone: str) -> float:
         while len(lags) < 10:
             lags.append(time.time() - orjson.loads(await ws.recv())["data"]["timestamp"])
     return max(lags[-3:])
+
+
+async def partition_of(url: str, token: str) -> str:
+    """The replica's part of a partitioned fleet (its health's ``partition``), or nothing."""
+    import httpx
+
+    async with httpx.AsyncClient(base_url=url, timeout=30) as http:
+        answer = await http.get("/api/v1/health", headers={"Authorization": f"Bearer {token}"})
+    part = answer.json().get("partition")
+    if not part:
+        return ""
+    return (f"; owns {part['own']} of {part['drones']} drones among {part['replicas']} "
+            f"replicas, {part['moved']} moved")  # fmt: skip
 
 
 _DRAINS: set[asyncio.Task[bytes]] = set()
@@ -170,9 +190,11 @@ async def _replicas_on(
 ) -> tuple[int, float, float]:
     procs, webs = [], []
     token = secrets.token_urlsafe(24)
+    sharing = ["--partition-fleet"] if args.partition else ["--share-ingestion", broker.nats_url]
     try:
         for i in range(k):
-            proc, url = await start_replica(broker, password, state, folder, f"k{k}-r{i}", token)
+            name = f"k{k}-r{i}"
+            proc, url = await start_replica(broker, password, state, folder, name, token, sharing)
             procs.append(proc)
             webs.append(url)
         stores = [folder / f"k{k}-r{i}.db" for i in range(k)]
@@ -187,6 +209,7 @@ async def _replicas_on(
         rows = [lat_rows(s) - r for s, r in zip(stores, rows0, strict=True)]
         sent = fleet_counters[TELEMETRY] - sent0
         lags = [await stream_lag_s(url, token, "D00000") for url in webs]
+        parts = [await partition_of(url, token) for url in webs]
     finally:
         for proc in procs:
             if proc.returncode is None:
@@ -204,7 +227,7 @@ async def _replicas_on(
     for i in range(k):
         print(f"  replica {i + 1}: stored {rows[i] / window:,.0f} msg/s, CPU {cpu[i] / window:.2f} "
               f"core, {cpu[i] / max(sent, 1) * 1e3:.3f} ms per message sent; live stream "
-              f"{lags[i]:.2f} s behind")  # fmt: skip
+              f"{lags[i]:.2f} s behind{parts[i]}")  # fmt: skip
     per_sent = max(cpu) / max(sent, 1)
     return k, total / window, per_sent
 
@@ -250,20 +273,25 @@ async def run(args: argparse.Namespace) -> None:
         shutil.rmtree(folder, ignore_errors=True)
     print()
     if args.replicas:
-        # Every replica reads the whole stream: its cost per message sent is a part every
-        # replica pays (the inbox) and a part shared (storing): cost(K) = whole + share / K,
-        # fitted through K = 1 and 3. The fleet one replica per host carries is bounded by it.
+        # A replica's cost per message the fleet sends is a part every replica pays and a part
+        # shared: cost(K) = whole + share / K, fitted through K = 1 and 3. Sharing the storing
+        # only, the whole part is the inbox's whole stream; partitioned (--partition), it is
+        # the other replicas' pictures and the heartbeats, and the share is the own drones'
+        # stream. The fleet one replica per host carries is bounded by it.
         c1, c3 = rows[0][2], rows[2][2]
         share = (c1 - c3) * 3 / 2
         whole = c1 - share
         at_hosts = whole + share / HOSTS
         drones = CORE_PER_REPLICA / at_hosts / TELEMETRY_HZ
+        paid, shared = (
+            ("the pictures", "its own drones") if args.partition else ("the inbox", "storing")
+        )
         print(f"a whole replica's CPU per message the fleet sends: {c1 * 1e3:.3f} ms alone, "
-              f"{c3 * 1e3:.3f} ms with 3: {whole * 1e3:.3f} ms every replica pays (the inbox)"
-              f" + {share * 1e3:.3f} ms shared (storing)")  # fmt: skip
+              f"{c3 * 1e3:.3f} ms with 3: {whole * 1e3:.3f} ms every replica pays ({paid})"
+              f" + {share * 1e3:.3f} ms shared ({shared})")  # fmt: skip
         print(f"{HOSTS} replicas, one per host given {CORE_PER_REPLICA:g} core: "
               f"{at_hosts * 1e3:.3f} ms each per message, {drones:,.0f} drones at "
-              f"{TELEMETRY_HZ} Hz (each replica still reads the whole stream)")  # fmt: skip
+              f"{TELEMETRY_HZ} Hz")  # fmt: skip
         return
     # The cost at the highest rate per consumer (one consumer takes everything): at scale each
     # replica takes thousands of messages a second, where fixed costs (timers, batch flushes)
@@ -345,6 +373,12 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--warmup", type=float, default=5.0)
     parser.add_argument("--replicas", action="store_true", help="whole dronefleet ground replicas")
+    parser.add_argument(
+        "--partition",
+        action="store_true",
+        help="with --replicas: the replicas share the fleet by drone (--partition-fleet) "
+        "instead of sharing only the storing (--share-ingestion)",
+    )
     parser.add_argument("--postgres", default=SHARED, help="a server to make the state on")
     args = parser.parse_args()
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())

@@ -143,6 +143,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "message is stored by one replica; a broker that is not NATS is refused "
         "(docs/deployment.md); default: store all of it",
     )
+    g.add_argument(
+        "--partition-fleet",
+        action="store_true",
+        help="share the fleet by drone with the other replicas on the same --state "
+        "postgresql://...: this replica takes (stores, streams, checks) only its own drones' "
+        "telemetry and sees the others' from their replicas' pictures (docs/deployment.md); "
+        "refused with an SQLite state or with --share-ingestion",
+    )
     add_trusted_proxy(g)
     g.set_defaults(func=run_ground)
 
@@ -252,6 +260,7 @@ async def _ground(args: argparse.Namespace) -> int:
         photo_dir=args.photo_dir,
         trusted_proxies=args.trusted_proxy,
         share_ingestion=args.share_ingestion,
+        partition_fleet=args.partition_fleet,
     )
     try:
         await services.start()

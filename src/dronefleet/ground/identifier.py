@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import logging
 import math
+from collections.abc import Callable
 from typing import Any, Literal
 
 from pydantic import Field
@@ -109,6 +110,9 @@ class DroneIdentifier:
         self.fleet: dict[str, DroneRecord] = {}
         self._dirty: set[str] = set()
         self._persisted_at: dict[str, float] = {}
+        #: Whether this ground saves ``drone_id``'s record: among replicas that share the fleet
+        #: by drone (ground/partition.py), its owner's does; every replica keeps every record.
+        self.persists: Callable[[str], bool] = lambda _drone_id: True
         self._gear_asked_at: dict[str, float] = {}
         self._tasks: list[asyncio.Task[None]] = []
         self._gear_tasks: set[asyncio.Task[None]] = set()
@@ -343,6 +347,7 @@ class DroneIdentifier:
         while True:
             await asyncio.sleep(1.0)
             now = timestamp_s()
+            self._dirty = {d for d in self._dirty if self.persists(d)}
             due = [
                 d for d in self._dirty if now - self._persisted_at.get(d, 0.0) >= PERSIST_EVERY_S
             ]

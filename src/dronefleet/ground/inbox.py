@@ -26,6 +26,14 @@ monitor, the Drone Identifier: they publish), so a slow consumer never holds up 
 queue drops its oldest message, counted per consumer.
 
 A ground service given no inbox (a test of that service alone) opens one of its own.
+
+**Partitioned** (ground/partition.py: replicas sharing the fleet by drone), the telemetry feed
+holds at the broker only this replica's own drones' topics (:meth:`FleetInbox.take_only`), and the
+other replicas' drones come as **peer** messages: their latest telemetry, a few times a second, in
+the pictures the replicas exchange (ground/picture_share.py). Each consumer says which it takes
+(``takes``): ``all`` (the live stream, the Identifier, the planner: the whole fleet), ``own`` (the
+telemetry connector: each message stored by its owner; the separation monitor's comparisons) or
+``peers``.
 """
 
 from __future__ import annotations
@@ -35,19 +43,22 @@ import contextlib
 import logging
 from collections import Counter, deque
 from collections.abc import Awaitable, Callable
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Literal, TypeVar
 
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.status import Heartbeat, Telemetry
-from dronefleet.messaging.topics import Channel, any_drone
+from dronefleet.messaging.topics import Channel, Direction, any_drone, topic
 
 log = logging.getLogger(__name__)
 _throttle = LogThrottle(log)  # one line per kind per 10 s: junk on the broker must not flood it
 
 M = TypeVar("M", Heartbeat, Telemetry)
+#: Which messages a consumer is handed: its replica's own drones', the other replicas' (peer
+#: pictures, partitioned only) or both. Unpartitioned, every message is an own one.
+Takes = Literal["all", "own", "peers"]
 
 #: Messages waiting per queued consumer; beyond it the oldest is dropped (counted).
 QUEUE_LIMIT = 5_000
@@ -58,8 +69,15 @@ BATCH = 64
 class _Queue(Generic[M]):
     """One queued consumer: its bounded queue and its worker."""
 
-    def __init__(self, kind: str, name: str, handler: Callable[[M], Awaitable[None]], limit: int):
-        self.kind, self.name, self.limit = kind, name, limit
+    def __init__(
+        self,
+        kind: str,
+        name: str,
+        handler: Callable[[M], Awaitable[None]],
+        limit: int,
+        takes: Takes,
+    ) -> None:
+        self.kind, self.name, self.limit, self.takes = kind, name, limit, takes
         self.handler: Callable[[M], Awaitable[None]] = handler
         self.items: deque[M] = deque()
         self.dropped = 0  # pushed out of a full queue
@@ -109,31 +127,42 @@ class Feed(Generic[M]):
         self.client = BrokerClient(broker_url, f"{client_id}-{channel}")
         self.channel, self.kind = channel, kind
         self.model: type[M] = model
-        self._direct: list[tuple[str, Callable[[M], Any]]] = []
+        self._direct: list[tuple[str, Callable[[M], Any], Takes]] = []
         self._queues: list[_Queue[M]] = []
         self.received = 0  # messages read and handed on
 
-    def direct(self, name: str, handler: Callable[[M], Any]) -> None:
+    def direct(self, name: str, handler: Callable[[M], Any], *, takes: Takes = "all") -> None:
         """Call ``handler(message)`` at once for every message: it must be quick, never wait."""
-        self._direct.append((name, handler))
+        self._direct.append((name, handler, takes))
 
     def queued(
-        self, name: str, handler: Callable[[M], Awaitable[None]], *, limit: int = QUEUE_LIMIT
+        self,
+        name: str,
+        handler: Callable[[M], Awaitable[None]],
+        *,
+        limit: int = QUEUE_LIMIT,
+        takes: Takes = "all",
     ) -> None:
         """Await ``handler(message)`` for every message, in order, on a worker of its own."""
-        self._queues.append(_Queue(self.kind, name, handler, limit))
+        self._queues.append(_Queue(self.kind, name, handler, limit, takes))
 
     async def detach(self, name: str) -> None:
         """Hand ``name`` nothing more (its queue, if any, is dropped)."""
-        self._direct = [(n, h) for n, h in self._direct if n != name]
+        self._direct = [(n, h, t) for n, h, t in self._direct if n != name]
         leaving = [q for q in self._queues if q.name == name]
         self._queues = [q for q in self._queues if q.name != name]
         for queue in leaving:
             await queue.stop()
 
-    def hand(self, message: M) -> None:
-        self.received += 1
-        for name, handler in self._direct:
+    def hand(self, message: M, *, peer: bool = False) -> None:
+        """``message`` to its consumers: an own one (read from the broker) or, ``peer``, one of
+        another replica's drones (its picture)."""
+        skip = "own" if peer else "peers"
+        if not peer:
+            self.received += 1
+        for name, handler, takes in self._direct:
+            if takes == skip:
+                continue
             try:
                 handler(message)
             except Exception:
@@ -141,7 +170,8 @@ class Feed(Generic[M]):
                               "the %s failed on a %s of %s; dropped", name, self.kind,
                               message.drone_id, exc=True)  # fmt: skip
         for queue in self._queues:
-            queue.put(message)
+            if queue.takes != skip:
+                queue.put(message)
 
     def behind(self) -> dict[str, int]:
         """Messages dropped from full queues, by consumer."""
@@ -155,9 +185,11 @@ class Feed(Generic[M]):
 
 class FleetInbox:
     """``await FleetInbox(url, client_id=...).start()``; consumers attach to :attr:`telemetry`
-    and :attr:`heartbeats` (``direct`` or ``queued``) before or after it starts."""
+    and :attr:`heartbeats` (``direct`` or ``queued``) before or after it starts.
+    ``partitioned``: no drone's telemetry is taken until :meth:`take_only` names it."""
 
-    def __init__(self, broker_url: Any, *, client_id: str) -> None:
+    def __init__(self, broker_url: Any, *, client_id: str, partitioned: bool = False) -> None:
+        self.partitioned = partitioned
         self.telemetry: Feed[Telemetry] = Feed(
             broker_url, client_id, Channel.TELEMETRY, "telemetry", Telemetry
         )
@@ -191,6 +223,13 @@ class FleetInbox:
             self.receive(feed, topic_name, payload)
 
         await feed.client.subscribe(any_drone(feed.channel), receive, qos=QOS_STREAM)
+        if self.partitioned and feed is self.telemetry:
+            await self.take_only(set())
+
+    async def take_only(self, drone_ids: set[str]) -> None:
+        """Partitioned: take the telemetry of ``drone_ids`` (this replica's own) and no other."""
+        filters = {topic(d, Channel.TELEMETRY, Direction.OUT) for d in drone_ids}
+        await self.telemetry.client.narrow(any_drone(Channel.TELEMETRY), filters)
 
     def receive(self, feed: Feed[M], topic_name: str, payload: bytes) -> None:
         """A message as the broker delivers it: read once, handed to ``feed``'s consumers."""

@@ -40,8 +40,10 @@ from dronefleet.ground.manager.geocoder import Geocoder
 from dronefleet.ground.manager.health import GroundHealth
 from dronefleet.ground.manager.mbtiles import MBTiles, is_tile_url
 from dronefleet.ground.manager.stream import StreamHub
+from dronefleet.ground.partition import FleetPartition, PartitionNotApplicable
 from dronefleet.ground.photos.collector import PhotoCollector
 from dronefleet.ground.photos.store import PhotoStore
+from dronefleet.ground.picture_share import PictureShare
 from dronefleet.ground.planner.service import MissionPlanner
 from dronefleet.ground.planner.worker import DEFAULT_BUDGET_S, PlanningWorker
 from dronefleet.ground.presence import GroundPresence
@@ -85,7 +87,13 @@ class GroundServices:
         photo_dir: str | Path | None = None,
         trusted_proxies: Sequence[str] = (),
         share_ingestion: str | None = None,
+        partition_fleet: bool = False,
     ) -> None:
+        #: Share the fleet by drone among the replicas (ground/partition.py): each takes only
+        #: its own drones' telemetry from the broker, the others' from their pictures.
+        self.partition_fleet = partition_fleet
+        self.partition: FleetPartition | None = None
+        self.pictures: PictureShare | None = None
         #: NATS's client address: store only this replica's share of the telemetry, taken in a
         #: queue group (ground/telemetry/shared_ingest.py); None: store all the inbox reads.
         self.share_ingestion = share_ingestion
@@ -155,9 +163,19 @@ class GroundServices:
     async def _start(self) -> None:
         if self.share_ingestion is not None:
             check_shareable(self.broker_url)  # refused before anything starts
+        if self.partition_fleet and self.share_ingestion is not None:
+            raise PartitionNotApplicable(
+                "--share-ingestion does not apply with --partition-fleet: each replica already "
+                "stores only its own drones' telemetry; leave one out"
+            )
         suffix = secrets.token_hex(3)
         self.state = await state_store(self.state_path).open()
         self._started.append(self.state)
+        if self.partition_fleet and not self.state.shared:
+            raise PartitionNotApplicable(
+                "--partition-fleet shares the fleet among replicas on a shared state: give "
+                "--state postgresql://...; with an SQLite state there is one ground per broker"
+            )
         tokens = TokenBook(self.state)
         await self._tokens(tokens)
         # The alarm log (the web's alarm centre): fed by the planner and the separation monitor,
@@ -178,7 +196,9 @@ class GroundServices:
             self._started.append(presence)
         # The fleet's stream, read once for every service (issue 27); subscribed before any
         # service starts, so the Identifier counts silence from a subscription in place.
-        inbox = self.inbox = FleetInbox(url, client_id=f"ground-inbox-{suffix}")
+        inbox = self.inbox = FleetInbox(
+            url, client_id=f"ground-inbox-{suffix}", partitioned=self.partition_fleet
+        )
         await inbox.start()
         self._started.append(inbox)
         self.identifier = DroneIdentifier(
@@ -217,6 +237,15 @@ class GroundServices:
             )
             await self.shared_ingest.start()
             self._started.append(self.shared_ingest)
+        if self.partition_fleet:
+            self.pictures = PictureShare(
+                url, inbox, replica=self.replica_id, client_id=f"ground-pictures-{suffix}"
+            )
+            self.partition = FleetPartition(self.state, inbox, member=self.replica_id)
+            self.identifier.persists = self.partition.owns  # each record saved by one replica
+            for part in (self.pictures, self.partition):
+                await part.start()
+                self._started.append(part)
         self.photos = PhotoStore(self.photo_dir)
 
         ctx = ManagerContext(self.state, tokens, self.gateway, self.telemetry, self.hub)
@@ -228,6 +257,7 @@ class GroundServices:
         self.app.state.photos = self.photos
         self.app.state.health = GroundHealth.of(self)  # GET /api/v1/health's probes
         self.app.state.replica = self._role if self.state.shared else None
+        self.app.state.partition = self._partition if self.partition is not None else None
         if self.state.shared:
             self.lease = Lease(
                 self.state, holder=self.replica_id, on_lead=self._lead, on_follow=self._follow
@@ -298,6 +328,16 @@ class GroundServices:
             health.started = before.started
         self.app.state.health = health
 
+    def _partition(self) -> dict[str, int]:
+        part = self.partition
+        assert part is not None
+        return {
+            "replicas": len(part.members),
+            "drones": len(part.drones),
+            "own": len(part.own),
+            "moved": part.moves,
+        }
+
     def _role(self) -> str:
         return "leader" if self.leading else "standby"
 
@@ -311,6 +351,7 @@ class GroundServices:
         counts: dict[str, int] = self.inbox.dropped_counts() if self.inbox is not None else {}
         counts.update(self.planner.dropped if self.planner is not None else {})
         shared = self.shared_ingest.dropped if self.shared_ingest is not None else {}
+        counts.update(self.pictures.dropped if self.pictures is not None else {})
         counts.update({f"shared ingestion: {why}": n for why, n in shared.items()})
         counted_by = (
             ("telemetry", self.connector),

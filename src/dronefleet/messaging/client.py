@@ -120,6 +120,20 @@ class BrokerClient(Publishing):
             with contextlib.suppress(aiomqtt.MqttError, SessionClosed):
                 await self._sync_filters(self._client)
 
+    async def narrow(self, pattern: str, filters: set[str]) -> None:
+        """Hold only ``filters`` (each within ``pattern``) at the broker for the subscription
+        ``pattern``: a ground replica takes its own drones' telemetry (ground/partition.py).
+        Messages are still routed by ``pattern``; an empty set holds nothing."""
+        outside = [one for one in filters if not covers(pattern, one)]
+        if outside:
+            raise ValueError(f"{outside[0]!r} is not within {pattern!r}")
+        for sub in self._subs:
+            if sub.pattern == pattern:
+                sub.at_broker = frozenset(filters)
+        if self._client is not None and self.connected:
+            with contextlib.suppress(aiomqtt.MqttError, SessionClosed):
+                await self._sync_filters(self._client)
+
     async def _link_up(self, client: Any) -> None:
         """On a new link: nothing is subscribed there yet; subscribe what is wanted."""
         self._at_broker = {}

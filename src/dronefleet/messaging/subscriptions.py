@@ -45,6 +45,9 @@ class Subscription:
     queued_bytes: int = 0
     since_trim: int = 0  # messages taken since freed memory was last given back
     failed: int = 0  # messages its handler raised on
+    #: The filters held at the broker for it, each within ``pattern``, when narrower than the
+    #: pattern (BrokerClient.narrow: a ground replica's own drones); None: the pattern itself.
+    at_broker: frozenset[str] | None = None
 
 
 def offer(

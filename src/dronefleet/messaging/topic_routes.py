@@ -34,15 +34,29 @@ def broker_filters(subs: Iterable[Subscription]) -> dict[str, int]:
     this client covers (at the highest QoS of what it covers). A broker delivers a message
     once per matching subscription of a client (Mosquitto's allow_duplicate_messages, NATS),
     and every copy is handed to every matching subscription here: a drone whose logger
-    holds ``<id>/#`` beside its controller's ``<id>/mission/in`` started each mission twice."""
+    holds ``<id>/#`` beside its controller's ``<id>/mission/in`` started each mission twice.
+    A narrowed subscription (``at_broker``: thousands of one drone's topics) is held as its
+    filters, each compared only with the client's whole patterns (few), never with each other."""
     wanted: dict[str, int] = {}
+    narrowed: dict[str, int] = {}
     for sub in subs:
-        wanted[sub.pattern] = max(wanted.get(sub.pattern, 0), sub.qos)
-    return {
+        if sub.at_broker is None:
+            wanted[sub.pattern] = max(wanted.get(sub.pattern, 0), sub.qos)
+        else:
+            for one in sub.at_broker:
+                narrowed[one] = max(narrowed.get(one, 0), sub.qos)
+    held = {
         pattern: max(q for other, q in wanted.items() if covers(pattern, other))
         for pattern in wanted
         if not any(other != pattern and covers(other, pattern) for other in wanted)
     }
+    for one, qos in narrowed.items():
+        wider = [pattern for pattern in held if covers(pattern, one)]
+        if not wider:
+            held[one] = qos
+        for pattern in wider:
+            held[pattern] = max(held[pattern], qos)
+    return held
 
 
 class TopicRoutes:

@@ -112,7 +112,10 @@ def _header_negated_only_in_authorization(case: Case) -> bool:
 
 
 def _fits_as_text(value: object, schema: dict) -> bool:
-    """Whether ``value``, as the text a URL carries, is valid for ``schema``."""
+    """Whether ``value``, as the text a URL carries, is valid for ``schema``. A list of one is
+    that one on the wire (``[false]`` is sent as ``?drone=false``, as ``false`` is)."""
+    if isinstance(value, list) and len(value) == 1:
+        return _fits_as_text(value[0], schema)
     if isinstance(value, bool) or value is None:
         text = {True: "true", False: "false", None: "null"}[value]
     elif isinstance(value, int | float | str):

@@ -56,7 +56,15 @@ def status(http: httpx.Client, path: str) -> int:
         return 0
 
 
-def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path):
+@pytest.mark.parametrize(
+    "sharing",
+    [(), ("--partition-fleet",)],
+    ids=["whole-stream", "partitioned"],
+)
+def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path, sharing):
+    """Partitioned (ground/partition.py), the leader killed also owned some drones: the other
+    takes their telemetry once its row expires, and the planner sees them meanwhile as its
+    last picture said."""
     token = secrets.token_urlsafe(16)
     area = {"polygon": scenarios.rectangle(20, -10, 50, 60), "spacing_m": 10, "altitude_m": 15}
     spec = {"name": "cluster", "area": area, "drones": list(HOMES)}
@@ -68,7 +76,7 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path):
                 "ground", "--broker", nodes_from(ports, i), "--state", state,
                 "--store", f"sqlite:///{tmp_path}/telemetry-{i}.db",
                 "--photo-dir", str(tmp_path / f"photos-{i}"),
-                "--http", f"127.0.0.1:{http_ports[i]}", f"--token={token}",
+                "--http", f"127.0.0.1:{http_ports[i]}", f"--token={token}", *sharing,
             )
             for i in range(2)
         ]  # fmt: skip
@@ -108,6 +116,10 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path):
                         assert time.monotonic() < deadline, f"{drone_id} never heard"
                         time.sleep(0.2)
             time.sleep(3.0)  # the Identifier learns each drone's clock rate
+            if sharing:  # every drone owned by one replica of the two
+                parts = [api.get("/api/v1/health").json()["partition"] for api in apis]
+                assert [p["replicas"] for p in parts] == [2, 2], parts
+                assert sum(p["own"] for p in parts) == len(HOMES), parts
             created = apis[lead].post("/api/v1/missions", params={"start": "true"}, json=spec)
             assert created.status_code == 201, created.text
             mission_id = created.json()["mission_id"]
@@ -147,6 +159,7 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path):
                         time.sleep(0.5)
                     time.sleep(2.0)  # the watch sees the drones after the end too
                 fleet = {d["drone_id"]: d["status"] for d in standby.get("/api/v1/drones").json()}
+                part = standby.get("/api/v1/health").json()["partition"]
         for api in apis:
             api.close()
 
@@ -169,3 +182,5 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path):
     seen = {d: sorted(through_node_loss.seen[d]) for d in HOMES}
     print(f"statuses seen through the node's loss: {seen}")
     assert fleet == dict.fromkeys(HOMES, "online"), fleet
+    if sharing:  # the survivor took the killed replica's drones
+        assert part["replicas"] == 1 and part["own"] == len(HOMES), part

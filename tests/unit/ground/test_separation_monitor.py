@@ -14,7 +14,7 @@ from dronefleet.geo.types import LLA, NED
 from dronefleet.ground import separation_monitor as sm
 from dronefleet.ground.courses import Course, breach_along, breach_within, course_to
 from dronefleet.ground.separation_monitor import CLEAR_S, SeparationMonitor
-from dronefleet.messaging.status import Alarm
+from dronefleet.messaging.status import Alarm, Telemetry
 
 ORIGIN = LLA(40.63, -8.659, 10.0)
 
@@ -221,3 +221,36 @@ async def test_a_crowd_on_the_ground_is_not_compared_and_a_landing_ends_its_enco
     clock.now += CLEAR_S + 0.1
     await feed(mon, "A", 5, 5, 10)
     assert mon.status().active == [] and mon._near("A") == set()
+
+
+def test_pairs_left_out_as_out_of_reach_never_breach_on_their_courses() -> None:
+    """The monitor skips the courses of a pair farther apart than their speeds can close in the
+    horizon (issue 27): over random pairs, none skipped is one the courses would foresee, and
+    the skip is not vacuous."""
+    import random
+
+    rng = random.Random(27)
+    monitor = SeparationMonitor("local://bus-reach", client_id="x")
+    skipped = 0
+    for _ in range(20_000):
+        tracks = []
+        for _ in range(2):
+            fields = {"lat": 40.0 + rng.uniform(-4e-4, 4e-4),
+                      "lon": -8.0 + rng.uniform(-5e-4, 5e-4), "alt_m": rng.uniform(20, 40),
+                      "vn": rng.uniform(-15, 15), "ve": rng.uniform(-15, 15),
+                      "vd": rng.uniform(-4, 4), "in_air": 1.0}  # fmt: skip
+            if rng.random() < 0.5:
+                fields.update(goal_lat=fields["lat"] + rng.uniform(-3e-4, 3e-4),
+                              goal_lon=fields["lon"] + rng.uniform(-3e-4, 3e-4),
+                              goal_alt_m=rng.uniform(20, 40))  # fmt: skip
+            msg = Telemetry(drone_id="QUAD_1", vehicle_time_s=1.0, fields=fields)
+            track = sm._track_of(msg, 0.0)
+            assert track is not None
+            tracks.append(track)
+        a, b = tracks
+        rel = monitor._relative(a, b, 0.0)
+        flat = math.hypot(rel[0], rel[1])
+        if monitor._out_of_reach(a, b, rel, flat):
+            skipped += 1
+            assert monitor._foreseen(a, b, rel, 0.0) is None, (a, b)
+    assert 1_000 < skipped < 19_000

@@ -81,6 +81,7 @@ def create_app(ctx: ManagerContext) -> FastAPI:
             "status": "degraded" if problems else "ok",
             "problems": problems,
             "replica": replica() if (replica := getattr(app.state, "replica", None)) else None,
+            "partition": part() if (part := getattr(app.state, "partition", None)) else None,
             "version": __version__,
             "dropped_messages": dropped() if dropped else {},
         }

@@ -163,6 +163,19 @@ class HealthProblem(BaseModel):
     detail: str = Field(description="what is wrong, in a sentence")
 
 
+class Partition(BaseModel):
+    """This replica's part of a fleet shared by drone (``--partition-fleet``)."""
+
+    replicas: int = Field(description="the live replicas sharing the fleet, this one included")
+    drones: int = Field(description="drones heard (every replica hears every heartbeat)")
+    own: int = Field(description="those whose telemetry this replica takes from the broker")
+    moved: int = Field(
+        description="drones this replica took over or gave up since it started, as replicas "
+        "came and went (a replica dropping out and back, on a host too loaded to renew, shows "
+        "here)"
+    )
+
+
 class Health(BaseModel):
     """The ground's health (ground/manager/health.py): 200 ``ok``, or 503 ``degraded`` with
     the problems while any lasts."""
@@ -174,6 +187,9 @@ class Health(BaseModel):
         default=None,
         description="among ground replicas sharing a PostgreSQL state: leader (runs the "
         "Mission Planner) or standby; none for a ground alone on its broker",
+    )
+    partition: Partition | None = Field(
+        default=None, description="with --partition-fleet: this replica's part of the fleet"
     )
     version: str
     dropped_messages: dict[str, int] = Field(

@@ -71,7 +71,8 @@ class TelemetryConnector:
 
     async def start(self) -> TelemetryConnector:
         if self.from_inbox:
-            self.inbox.telemetry.direct("telemetry connector", self.take)
+            # Partitioned (ground/partition.py), each drone's telemetry is stored by its owner.
+            self.inbox.telemetry.direct("telemetry connector", self.take, takes="own")
         if self._own_inbox:
             await self.inbox.start()
         self._task = asyncio.create_task(self._flush_loop(), name="telemetry:flush")
