@@ -143,6 +143,16 @@ async def stream_lag_s(url: str, token: str, drone: str) -> float:
     return max(lags[-3:])
 
 
+async def owned(url: str, token: str, replicas: int) -> int:
+    """The drones the replica owns once it counts ``replicas`` replicas (-1 before)."""
+    import httpx
+
+    async with httpx.AsyncClient(base_url=url, timeout=30) as http:
+        answer = await http.get("/api/v1/health", headers={"Authorization": f"Bearer {token}"})
+    part = answer.json().get("partition") or {}
+    return int(part["own"]) if part.get("replicas") == replicas else -1
+
+
 async def partition_of(url: str, token: str) -> str:
     """The replica's part of a partitioned fleet (its health's ``partition``), or nothing."""
     import httpx
@@ -191,6 +201,8 @@ async def _replicas_on(
     procs, webs = [], []
     token = secrets.token_urlsafe(24)
     sharing = ["--partition-fleet"] if args.partition else ["--share-ingestion", broker.nats_url]
+    if args.keep is not None:
+        sharing.append("-v")  # their logs say when each took or gave up drones
     try:
         for i in range(k):
             name = f"k{k}-r{i}"
@@ -198,6 +210,12 @@ async def _replicas_on(
             procs.append(proc)
             webs.append(url)
         stores = [folder / f"k{k}-r{i}.db" for i in range(k)]
+        if args.partition:  # measured once the fleet is split: every drone owned by one
+            began = time.monotonic()
+            while sum([await owned(url, token, k) for url in webs]) != args.drones:
+                await asyncio.sleep(0.5)
+            print(f"  the fleet split among {k} replica(s) {time.monotonic() - began:.1f} s "
+                  "after the last one started")  # fmt: skip
         await asyncio.sleep(args.warmup)
         sent0 = fleet_counters[TELEMETRY]
         rows0 = [lat_rows(s) for s in stores]
@@ -270,6 +288,8 @@ async def run(args: argparse.Namespace) -> None:
         stop.set()
         fleet.join(10)
         await broker.stop()
+        if args.keep is not None:
+            shutil.copytree(folder, args.keep, dirs_exist_ok=True)  # the replicas' logs
         shutil.rmtree(folder, ignore_errors=True)
     print()
     if args.replicas:
@@ -379,6 +399,7 @@ def main() -> None:
         help="with --replicas: the replicas share the fleet by drone (--partition-fleet) "
         "instead of sharing only the storing (--share-ingestion)",
     )
+    parser.add_argument("--keep", type=Path, help="keep the replicas' logs and stores here")
     parser.add_argument("--postgres", default=SHARED, help="a server to make the state on")
     args = parser.parse_args()
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())

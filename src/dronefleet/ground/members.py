@@ -106,6 +106,9 @@ class Membership:
         self.error = None
         members = tuple(sorted({row[0] for row in rows} | {self.name}))
         if members != self.members:
-            log.info("ground replicas: %d (%s)", len(members), ", ".join(members))
+            gone = sorted(set(self.members) - set(members))
+            log.log(logging.WARNING if gone else logging.INFO, "ground replicas: %d (%s)%s",
+                    len(members), ", ".join(members),
+                    f"; gone: {', '.join(gone)}" if gone else "")  # fmt: skip
             self.members = members
             self._on_change(members)

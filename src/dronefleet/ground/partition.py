@@ -65,8 +65,10 @@ class FleetPartition:
         self.member = member
         self.membership = Membership(state, name=member, on_change=self._members_changed)
         self.drones: set[str] = set()  # every drone heard (heartbeats)
-        self.own: frozenset[str] = frozenset()  # those this replica owns, taken at the broker
-        self.moves = 0  # drones gained or lost since the start, by changes of the members
+        self.own: frozenset[str] = frozenset()  # those this replica owns now
+        self.moves = 0  # drones gained from others or given up since the start
+        self._known: frozenset[str] = frozenset()  # the drones heard at the last look
+        self._taken: frozenset[str] | None = None  # what the broker was last told to send
         self._changed = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
 
@@ -108,11 +110,18 @@ class FleetPartition:
             self._changed.clear()
             members = self.members
             own = frozenset(d for d in self.drones if owner(d, members) == self.member)
-            if own == self.own:
+            if own != self.own:
+                # Moved: gained from another replica or given up, not newly heard.
+                gained, lost = (own - self.own) & self._known, self.own - own
+                self.moves += len(gained) + len(lost)
+                log.log(logging.INFO if gained or lost else logging.DEBUG,  # not each new drone
+                        "this replica owns %d of %d drones (+%d, -%d moved) among %d replicas",
+                        len(own), len(self.drones), len(gained), len(lost),
+                        len(members))  # fmt: skip
+                self.own = own
+            self._known = frozenset(self.drones)
+            if own == self._taken:
                 continue
-            gained, lost = len(own - self.own), len(self.own - own)
-            if self.own:
-                self.moves += gained + lost
             try:
                 await self.inbox.take_only(set(own))
             except Exception:
@@ -120,6 +129,4 @@ class FleetPartition:
                 await asyncio.sleep(0.5)
                 self._changed.set()
                 continue
-            self.own = own
-            log.info("this replica owns %d of %d drones (+%d, -%d) among %d replicas",
-                     len(own), len(self.drones), gained, lost, len(members))  # fmt: skip
+            self._taken = own

@@ -34,6 +34,10 @@ __all__ = [
 ]
 
 
+#: Topic filters sent in one SUBSCRIBE or UNSUBSCRIBE packet at most.
+FILTERS_PER_PACKET = 100
+
+
 class BrokerClient(Publishing):
     """A persistent, self-healing connection to one MQTT broker."""
 
@@ -142,16 +146,31 @@ class BrokerClient(Publishing):
     async def _sync_filters(self, client: Any) -> None:
         """Subscribe what :func:`broker_filters` wants at the broker and is not there yet (or at
         a lower QoS), then unsubscribe what it no longer wants (the wider filter is in place
-        first)."""
+        first). Filters go :data:`FILTERS_PER_PACKET` to a SUBSCRIBE or UNSUBSCRIBE: a ground
+        replica's share of a fleet (ground/partition.py) is a filter a drone, and a replica
+        joining or leaving moves hundreds, which one round trip each made seconds on a loaded
+        host."""
         async with self._sync_lock:
             while (target := broker_filters(self._subs)) != self._at_broker:
-                for pattern, qos in target.items():
-                    if self._at_broker.get(pattern, -1) < qos:
-                        await client.subscribe(pattern, qos=qos)
-                        self._at_broker[pattern] = qos
-                for pattern in [p for p in self._at_broker if p not in target]:
-                    await client.unsubscribe(pattern)
-                    del self._at_broker[pattern]
+                wanted = [(p, q) for p, q in target.items() if self._at_broker.get(p, -1) < q]
+                for start in range(0, len(wanted), FILTERS_PER_PACKET):
+                    chunk = wanted[start : start + FILTERS_PER_PACKET]
+                    if isinstance(client, aiomqtt.Client) and len(chunk) > 1:
+                        await client.subscribe(chunk)
+                    else:
+                        for pattern, qos in chunk:
+                            await client.subscribe(pattern, qos=qos)
+                    self._at_broker.update(chunk)
+                gone = [p for p in self._at_broker if p not in target]
+                for start in range(0, len(gone), FILTERS_PER_PACKET):
+                    dropped = gone[start : start + FILTERS_PER_PACKET]
+                    if isinstance(client, aiomqtt.Client) and len(dropped) > 1:
+                        await client.unsubscribe(dropped)
+                    else:
+                        for pattern in dropped:
+                            await client.unsubscribe(pattern)
+                    for pattern in dropped:
+                        del self._at_broker[pattern]
 
     # -- incoming messages -------------------------------------------------------------------
     def _release(self, key: tuple[int, int]) -> None:
