@@ -168,14 +168,14 @@ class GroundServices:
                 "--share-ingestion does not apply with --partition-fleet: each replica already "
                 "stores only its own drones' telemetry; leave one out"
             )
-        suffix = secrets.token_hex(3)
-        self.state = await state_store(self.state_path).open()
-        self._started.append(self.state)
-        if self.partition_fleet and not self.state.shared:
-            raise PartitionNotApplicable(
+        if self.partition_fleet and not is_postgres_url(self.state_path):
+            raise PartitionNotApplicable(  # before the state is opened (an SQLite file made)
                 "--partition-fleet shares the fleet among replicas on a shared state: give "
                 "--state postgresql://...; with an SQLite state there is one ground per broker"
             )
+        suffix = secrets.token_hex(3)
+        self.state = await state_store(self.state_path).open()
+        self._started.append(self.state)
         tokens = TokenBook(self.state)
         await self._tokens(tokens)
         # The alarm log (the web's alarm centre): fed by the planner and the separation monitor,

@@ -256,6 +256,7 @@ async def test_partitioning_is_refused_where_it_does_not_apply(broker, tmp_path)
     )
     with pytest.raises(PartitionNotApplicable, match="postgresql"):
         await alone.start()
+    assert not (tmp_path / "ground.db").exists()  # refused before anything was made
     both = GroundServices(
         "mqtt://ground:secret@127.0.0.1:1",  # never reached: refused before anything starts
         store_url=f"sqlite:///{tmp_path}/t2.db",
