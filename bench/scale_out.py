@@ -143,23 +143,24 @@ async def stream_lag_s(url: str, token: str, drone: str) -> float:
     return max(lags[-3:])
 
 
-async def owned(url: str, token: str, replicas: int) -> int:
-    """The drones the replica owns once it counts ``replicas`` replicas (-1 before)."""
+async def health_partition(url: str, token: str) -> dict[str, int]:
+    """The replica's part of a partitioned fleet (its health's ``partition``; empty if none)."""
     import httpx
 
     async with httpx.AsyncClient(base_url=url, timeout=30) as http:
         answer = await http.get("/api/v1/health", headers={"Authorization": f"Bearer {token}"})
-    part = answer.json().get("partition") or {}
+    return answer.json().get("partition") or {}
+
+
+async def owned(url: str, token: str, replicas: int) -> int:
+    """The drones the replica owns once it counts ``replicas`` replicas (-1 before)."""
+    part = await health_partition(url, token)
     return int(part["own"]) if part.get("replicas") == replicas else -1
 
 
 async def partition_of(url: str, token: str) -> str:
-    """The replica's part of a partitioned fleet (its health's ``partition``), or nothing."""
-    import httpx
-
-    async with httpx.AsyncClient(base_url=url, timeout=30) as http:
-        answer = await http.get("/api/v1/health", headers={"Authorization": f"Bearer {token}"})
-    part = answer.json().get("partition")
+    """The replica's part of a partitioned fleet, said in words, or nothing."""
+    part = await health_partition(url, token)
     if not part:
         return ""
     return (f"; owns {part['own']} of {part['drones']} drones among {part['replicas']} "

@@ -25,8 +25,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import uvicorn
-
 from dronefleet.ground.alarm_log import AlarmLog
 from dronefleet.ground.fleet import MIN_LOST_AFTER_S
 from dronefleet.ground.identifier import DroneIdentifier
@@ -38,6 +36,7 @@ from dronefleet.ground.manager.context import ManagerContext
 from dronefleet.ground.manager.gateway import DroneGateway
 from dronefleet.ground.manager.geocoder import Geocoder
 from dronefleet.ground.manager.health import GroundHealth
+from dronefleet.ground.manager.http_server import HttpServer
 from dronefleet.ground.manager.mbtiles import MBTiles, is_tile_url
 from dronefleet.ground.manager.stream import StreamHub
 from dronefleet.ground.partition import FleetPartition, PartitionNotApplicable
@@ -58,9 +57,6 @@ from dronefleet.messaging.url import BrokerUrl
 log = logging.getLogger(__name__)
 
 STOP_TIMEOUT_S = 3.0
-#: Seconds the HTTP server may take to start before the ground gives up on it (issue 26: no
-#: wait without a bound).
-HTTP_START_TIMEOUT_S = 30.0
 
 
 class GroundServices:
@@ -144,8 +140,7 @@ class GroundServices:
         self.lease: Lease | None = None
         self.replica_id = f"ground-{socket.gethostname()}-{secrets.token_hex(4)}"
         self.app: Any = None
-        self._server: uvicorn.Server | None = None
-        self._serve_task: asyncio.Task[None] | None = None
+        self._http: HttpServer | None = None
         self._started: list[Any] = []
 
     @property
@@ -269,7 +264,8 @@ class GroundServices:
             self._started.append(_Seat(self))
         await self._map_sources()
         if self.serve_http:
-            await self._serve()
+            self._http = HttpServer(self.app, self.http_host, self.http_port, self.trusted_proxies)
+            self.http_port = await self._http.start()
 
     async def _lead(self) -> None:
         """Start the Mission Planner and its picture collector (this ground leads)."""
@@ -391,56 +387,10 @@ class GroundServices:
         elif first_start:
             self.admin_token = await tokens.issue_if_none("admin", Role.ADMIN)
 
-    async def _serve(self) -> None:
-        # The socket is bound here, not by uvicorn, which logs a port in use and calls sys.exit:
-        # ours raises OSError ("Address already in use"), which the CLI reports in one line.
-        sock = socket.socket(socket.AF_INET6 if ":" in self.http_host else socket.AF_INET)
-        try:
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            sock.bind((self.http_host, self.http_port))
-        except OSError:
-            sock.close()
-            raise
-        self.http_port = sock.getsockname()[1]
-        config = uvicorn.Config(
-            self.app,
-            host=self.http_host,
-            port=self.http_port,
-            log_level="warning",
-            lifespan="off",
-            ws="websockets-sansio",
-            timeout_graceful_shutdown=2,
-            timeout_keep_alive=2,
-            # uvicorn would believe X-Forwarded-For from 127.0.0.1 by default (and from whatever
-            # FORWARDED_ALLOW_IPS says): only from the proxies the ground was given.
-            proxy_headers=bool(self.trusted_proxies),
-            forwarded_allow_ips=self.trusted_proxies or [],
-        )
-        self._server = uvicorn.Server(config)
-        self._serve_task = asyncio.create_task(
-            self._server.serve(sockets=[sock]), name="ground:http"
-        )
-        deadline = asyncio.get_running_loop().time() + HTTP_START_TIMEOUT_S
-        while not self._server.started:
-            if self._serve_task.done():
-                self._serve_task.result()  # raises the reason (e.g. port in use)
-                raise RuntimeError(f"HTTP server on {self.http_url} stopped at start")
-            if asyncio.get_running_loop().time() > deadline:
-                self._serve_task.cancel()
-                raise RuntimeError(
-                    f"HTTP server on {self.http_url} not started in {HTTP_START_TIMEOUT_S:g} s"
-                )
-            await asyncio.sleep(0.02)
-
     async def stop(self) -> None:
-        if self._server is not None and self._serve_task is not None:
-            self._server.should_exit = True
-            # asyncio.wait, not wait_for: a server that ignores cancellation must not hang us.
-            done, _ = await asyncio.wait({self._serve_task}, timeout=5.0)
-            if not done:
-                log.warning("HTTP server did not stop within 5 s; leaving it")
-                self._serve_task.cancel()
-            self._server = self._serve_task = None
+        if self._http is not None:
+            await self._http.stop()
+            self._http = None
         while self._started:
             service = self._started.pop()
             closing = service.close() if hasattr(service, "close") else service.stop()
