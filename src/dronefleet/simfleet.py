@@ -8,28 +8,18 @@ would. Used by ``dronefleet drone --fc sim``, the demo, the experiments and the 
 from __future__ import annotations
 
 import asyncio
-import gc
 from collections.abc import Sequence
 from typing import Any
 
 from dronefleet.drone.app import DroneApp
 from dronefleet.drone.config import DroneConfig
 from dronefleet.geo.types import LLA
+from dronefleet.heap import settle_heap as settle_heap  # the fleet's callers settle it
 from dronefleet.messaging.url import BrokerUrl
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.flight_controller import SimFlightController
 from dronefleet.sim.gasfield import GasField, GasSensor, Plume
 from dronefleet.sim.world import SimWorld
-
-
-def settle_heap() -> None:
-    """Once a large fleet is up: keep the objects made so far out of the cyclic GC's scans and
-    collect the young generation less often. A fleet's start-up makes hundreds of MB of
-    long-lived objects (1000 drones: 445 MB) that every full collection would walk again;
-    bench/sim_scale.py measured 1000 drones at 0.10 vehicle s per wall s before, 0.16 after."""
-    gc.collect()
-    gc.freeze()
-    gc.set_threshold(20_000, 20, 20)
 
 
 class SimFleet:

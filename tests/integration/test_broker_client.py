@@ -217,3 +217,29 @@ async def test_a_client_stopped_and_started_again_hears_its_subscriptions(embedd
         await pub.publish("A/control/in", b"1")
         assert await asyncio.wait_for(got.get(), 5) == b"1"
         await client.stop()
+
+
+async def test_a_burst_of_packets_of_every_size_comes_whole_and_in_order(broker_url):
+    """paho reads through a buffer (messaging/read_buffer.py): a burst of QoS 1 packets, small
+    ones many to a read and some larger than a read, each come whole, in order, once."""
+    from dronefleet.messaging.read_buffer import READ_BYTES
+
+    sizes = [(i * 7919) % 900 + 1 for i in range(1500)]
+    sizes[100] = sizes[900] = READ_BYTES + 1_234  # across reads
+    sizes[500] = 3 * READ_BYTES
+    got: list[bytes] = []
+    done = asyncio.Event()
+
+    async def take(_topic: str, payload: bytes) -> None:
+        got.append(payload)
+        if len(got) == len(sizes):
+            done.set()
+
+    async with BrokerClient(broker_url, "sub") as sub, BrokerClient(broker_url, "pub") as pub:
+        await sub.subscribe("burst/+", take, qos=1)
+        await asyncio.sleep(0.2)
+        sent = [bytes([i % 256]) * size for i, size in enumerate(sizes)]
+        for i, payload in enumerate(sent):
+            await pub.publish(f"burst/{i % 7}", payload, qos=1)
+        await asyncio.wait_for(done.wait(), 30)
+    assert got == sent

@@ -242,6 +242,7 @@ async def _ground(args: argparse.Namespace) -> int:
     from dronefleet.errors import InvalidInput, Unavailable
     from dronefleet.ground.presence import GroundAlreadyRunning
     from dronefleet.ground.services import GroundServices
+    from dronefleet.heap import settle_heap
     from dronefleet.messaging.client import BrokerUnavailable
 
     services = GroundServices(
@@ -271,6 +272,7 @@ async def _ground(args: argparse.Namespace) -> int:
         reason = bind or (exc.strerror if isinstance(exc, OSError) and exc.strerror else exc)
         print(f"dronefleet ground: {reason}", file=sys.stderr)
         return 2
+    settle_heap()  # a long-running stream handler (dronefleet/heap.py)
     print(
         f"ground services on {services.http_url} (API docs: {services.http_url}/docs)", flush=True
     )

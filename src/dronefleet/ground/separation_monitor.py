@@ -48,6 +48,7 @@ from pydantic import BaseModel, Field
 from dronefleet.clock import monotonic, timestamp_s
 from dronefleet.ground.courses import Course, breach_along, course_to
 from dronefleet.ground.inbox import FleetInbox
+from dronefleet.ground.neighbour_grid import NeighbourGrid, cube_of
 from dronefleet.ground.planner.separation import HORIZONTAL_M, VERTICAL_M, WARNING_HORIZON_S
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.commands import AlarmLevel
@@ -70,7 +71,6 @@ MAX_EXTRAPOLATION_S = 1.0
 _M_PER_DEG = 111_320.0
 #: The neighbour grid's cube side (see the module's docstring).
 CELL_M = 150.0
-_EARTH_R_M = 6_371_000.0
 _AIRBORNE = frozenset({FlightState.TAKING_OFF, FlightState.FLYING, FlightState.LANDING})
 
 
@@ -127,6 +127,26 @@ def _course(f: dict[str, float]) -> Course:
     return course_to(vel, to_goal)
 
 
+@dataclass(slots=True)
+class _Counts:
+    """The counts of :class:`SeparationStatus`, kept as plain attributes."""
+
+    predicted_breaches: int = 0
+    actual_breaches: int = 0
+    min_distance_m: float | None = None
+    min_horizontal_m: float | None = None
+    pairs_compared: int = 0
+
+    def measure(self, flat: float, up: float) -> None:
+        """A pair compared, ``flat`` metres apart over the ground and ``up`` vertically."""
+        self.pairs_compared += 1
+        distance = math.hypot(flat, up)
+        if self.min_distance_m is None or distance < self.min_distance_m:
+            self.min_distance_m = round(distance, 2)
+        if abs(up) < VERTICAL_M and (self.min_horizontal_m is None or flat < self.min_horizontal_m):
+            self.min_horizontal_m = round(flat, 2)
+
+
 @dataclass
 class _Encounter:
     level: AlarmLevel
@@ -151,12 +171,12 @@ class SeparationMonitor:
         self.horizon_s = horizon_s
         self.tracks: dict[str, _Track] = {}
         self.encounters: dict[tuple[str, str], _Encounter] = {}
-        self.counts = SeparationStatus(horizon_s=horizon_s)
+        #: The counts, a plain object (a pydantic model's attribute writes cost per pair).
+        self.counts = _Counts()
         self.dropped = 0  # raw messages (:meth:`_on_telemetry`) that did not validate
         #: Called with each alarm raised, as sent (the alarm log: ground/alarm_log.py).
         self.alarm_listeners: list[Callable[[dict[str, Any]], None]] = []
-        self._grid: dict[tuple[int, int, int], set[str]] = {}  # cube -> drones in it
-        self._cube_of: dict[str, tuple[int, int, int]] = {}
+        self.grid = NeighbourGrid()  # the drones in the air, by cube (ground/neighbour_grid.py)
         self._partners: dict[str, set[str]] = {}  # drone -> drones it has an encounter with
 
     async def start(self) -> SeparationMonitor:
@@ -180,7 +200,16 @@ class SeparationMonitor:
 
     def status(self) -> SeparationStatus:
         active = sorted(f"{a}/{b}" for a, b in self.encounters)
-        return self.counts.model_copy(update={"active": active})
+        c = self.counts
+        return SeparationStatus(
+            horizon_s=self.horizon_s,
+            active=active,
+            predicted_breaches=c.predicted_breaches,
+            actual_breaches=c.actual_breaches,
+            min_distance_m=c.min_distance_m,
+            min_horizontal_m=c.min_horizontal_m,
+            pairs_compared=c.pairs_compared,
+        )
 
     # -- input ---------------------------------------------------------------------------------
     async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
@@ -221,15 +250,6 @@ class SeparationMonitor:
         await self._compare(hb.drone_id, now)
 
     # -- comparison ----------------------------------------------------------------------------
-    def _relative(self, a: _Track, b: _Track, now: float) -> tuple[float, float, float]:
-        """Where ``b`` is from ``a`` (n, e, up metres), now."""
-        east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
-        da, db = _age(a, now), _age(b, now)
-        n = (b.lat - a.lat) * _M_PER_DEG + b.vn * db - a.vn * da
-        e = _dlon(a.lon, b.lon) * east_m_per_deg + b.ve * db - a.ve * da
-        u = (b.alt_m - b.vd * db) - (a.alt_m - a.vd * da)
-        return n, e, u
-
     def _foreseen(
         self, a: _Track, b: _Track, rel: tuple[float, float, float], now: float
     ) -> float | None:
@@ -244,83 +264,48 @@ class SeparationMonitor:
         waiting at its homes, 36 drones a cube in bench/sim_scale.py's 1000) costs a message
         nothing (issue 27)."""
         self.tracks[drone_id] = track
-        cube = _cube(track) if track.in_air else None
-        old = self._cube_of.get(drone_id)
-        if old == cube:
-            return
-        if old is not None:
-            members = self._grid[old]
-            members.discard(drone_id)
-            if not members:
-                del self._grid[old]
-        if cube is None:
-            del self._cube_of[drone_id]
-            return
-        self._grid.setdefault(cube, set()).add(drone_id)
-        self._cube_of[drone_id] = cube
+        self.grid.place(drone_id, _cube(track) if track.in_air else None)
 
     def _near(self, drone_id: str) -> set[str]:
         """The drones in the air in the 27 cubes around ``drone_id``'s when it is in the air,
         and those it has an encounter with (so that one ends even when they have drifted apart
         or landed)."""
-        near: set[str] = set(self._partners.get(drone_id, ()))
-        cube = self._cube_of.get(drone_id)
-        if cube is not None:
-            x, y, z = cube
-            grid = self._grid
-            for dx in (-1, 0, 1):
-                for dy in (-1, 0, 1):
-                    for dz in (-1, 0, 1):
-                        members = grid.get((x + dx, y + dy, z + dz))
-                        if members:
-                            near |= members
-        near.discard(drone_id)
-        return near & self.tracks.keys()
+        return set(self._others(drone_id))
+
+    def _others(self, drone_id: str) -> tuple[str, ...]:
+        """:meth:`_near`, sorted (alarms come in the same order whatever the sets' order); the
+        grid's kept tuple itself when the drone has no encounter, the usual case."""
+        around = self.grid.around(drone_id)
+        partners = self._partners.get(drone_id)
+        if partners:
+            around = tuple(sorted(set(around) | partners))
+        return tuple(d for d in around if d != drone_id and d in self.tracks)
 
     async def _compare(self, drone_id: str, now: float) -> None:
-        me = self.tracks[drone_id]
-        for other_id in sorted(self._near(drone_id)):
-            other = self.tracks[other_id]
+        """``drone_id``'s track against each neighbour's."""
+        tracks, counts, horizon = self.tracks, self.counts, self.horizon_s
+        me = tracks[drone_id]
+        origin = _origin(me, now)  # once for all its neighbours
+        for other_id in self._others(drone_id):
+            other = tracks[other_id]
             pair = (drone_id, other_id) if drone_id < other_id else (other_id, drone_id)
             if not (me.in_air and other.in_air) or now - other.seen_s > STALE_S:
                 if pair in self.encounters:
                     await self._clear(pair, now)
                 continue
-            rel = self._relative(me, other, now)
-            self._measure(rel)
-            flat = math.hypot(rel[0], rel[1])
-            if flat < HORIZONTAL_M and abs(rel[2]) < VERTICAL_M:
+            rel = _offset(origin, other, now)
+            flat, u = math.hypot(rel[0], rel[1]), rel[2]
+            counts.measure(flat, u)
+            if flat < HORIZONTAL_M and abs(u) < VERTICAL_M:
                 await self._raise(pair, AlarmLevel.CRITICAL, me, other, rel, 0.0)
                 continue
             ahead = None
-            if not self._out_of_reach(me, other, rel, flat):
+            if not _out_of_reach(me, other, flat, u, horizon):
                 ahead = self._foreseen(me, other, rel, now)
             if ahead is not None:
                 await self._raise(pair, AlarmLevel.WARNING, me, other, rel, ahead)
             elif pair in self.encounters:
                 await self._clear(pair, now)
-
-    def _out_of_reach(
-        self, a: _Track, b: _Track, rel: tuple[float, float, float], flat: float
-    ) -> bool:
-        """Whether ``a`` and ``b`` are too far apart to come within the minima in the horizon
-        at any speed their courses allow (each at most its own, so they close at most at the
-        sum): most neighbours are, and the courses are then not worked out (issue 27: it was
-        the monitor's largest cost per message, on drones hovering 200 m apart)."""
-        horizon = self.horizon_s
-        if flat - (a.flat_mps + b.flat_mps) * horizon >= HORIZONTAL_M:
-            return True
-        return abs(rel[2]) - (a.climb_mps + b.climb_mps) * horizon >= VERTICAL_M
-
-    def _measure(self, rel: tuple[float, float, float]) -> None:
-        c = self.counts
-        c.pairs_compared += 1
-        flat = math.hypot(rel[0], rel[1])
-        distance = math.hypot(flat, rel[2])
-        if c.min_distance_m is None or distance < c.min_distance_m:
-            c.min_distance_m = round(distance, 2)
-        if abs(rel[2]) < VERTICAL_M and (c.min_horizontal_m is None or flat < c.min_horizontal_m):
-            c.min_horizontal_m = round(flat, 2)
 
     async def _clear(self, pair: tuple[str, str], now: float) -> None:
         encounter = self.encounters.get(pair)
@@ -418,19 +403,51 @@ def _track_of(msg: Telemetry, seen_s: float) -> _Track | None:
     return track
 
 
+def _relative(a: _Track, b: _Track, now: float) -> tuple[float, float, float]:
+    """Where ``b`` is from ``a`` (n, e, up metres), now."""
+    return _offset(_origin(a, now), b, now)
+
+
+#: A track as the origin of :func:`_offset`: metres per degree east at its latitude, its
+#: latitude and longitude, and how far its velocity has moved it on (n, e) and its height.
+_Origin = tuple[float, float, float, float, float, float]
+
+
+def _origin(a: _Track, now: float) -> _Origin:
+    """What :func:`_offset` needs of ``a``, worked out once for all its neighbours."""
+    da = _age(a, now)
+    east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
+    return east_m_per_deg, a.lat, a.lon, a.vn * da, a.ve * da, a.alt_m - a.vd * da
+
+
+def _offset(origin: _Origin, b: _Track, now: float) -> tuple[float, float, float]:
+    """Where ``b`` is from the track ``origin`` was made of (n, e, up metres), now."""
+    east_m_per_deg, lat, lon, an, ae, au = origin
+    db = min(max(now - b.seen_s, 0.0), MAX_EXTRAPOLATION_S)  # _age, inline: once per pair
+    n = (b.lat - lat) * _M_PER_DEG + b.vn * db - an
+    e = ((b.lon - lon + 180.0) % 360.0 - 180.0) * east_m_per_deg + b.ve * db - ae  # _dlon
+    return n, e, (b.alt_m - b.vd * db) - au
+
+
+def _out_of_reach(a: _Track, b: _Track, flat: float, up: float, horizon_s: float) -> bool:
+    """Whether ``a`` and ``b``, ``flat`` metres apart over the ground and ``up`` metres apart
+    vertically, are too far apart to come within the minima in ``horizon_s`` at any speed their
+    courses allow (each at most its own, so they close at most at the sum): most neighbours are,
+    and the courses are then not worked out (issue 27: it was the monitor's largest cost per
+    message, on drones hovering 200 m apart)."""
+    if flat - (a.flat_mps + b.flat_mps) * horizon_s >= HORIZONTAL_M:
+        return True
+    return abs(up) - (a.climb_mps + b.climb_mps) * horizon_s >= VERTICAL_M
+
+
 def _age(track: _Track, now: float) -> float:
     """How far its last position is moved on by its velocity (bounded: see MAX_EXTRAPOLATION_S)."""
     return min(max(now - track.seen_s, 0.0), MAX_EXTRAPOLATION_S)
 
 
 def _cube(track: _Track) -> tuple[int, int, int]:
-    """The grid cube (:data:`CELL_M`) of ``track``'s position on the Earth-centred frame: one
-    scale everywhere, so neighbours are neighbours at any latitude and across the antimeridian."""
-    lat, lon = math.radians(track.lat), math.radians(track.lon)
-    r = _EARTH_R_M + track.alt_m
-    flat = r * math.cos(lat)
-    x, y, z = flat * math.cos(lon), flat * math.sin(lon), r * math.sin(lat)
-    return (math.floor(x / CELL_M), math.floor(y / CELL_M), math.floor(z / CELL_M))
+    """The neighbour grid's cube (:data:`CELL_M`) of ``track``'s position."""
+    return cube_of(track.lat, track.lon, track.alt_m, CELL_M)
 
 
 def _dlon(from_deg: float, to_deg: float) -> float:

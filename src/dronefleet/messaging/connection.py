@@ -24,6 +24,7 @@ from dronefleet.messaging.log_throttle import LogThrottle, ThrottleFilter
 from dronefleet.messaging.mqtt_link import closed_before_connack_fails, linked
 from dronefleet.messaging.mqtt_queue import dispatching_queue
 from dronefleet.messaging.node_turns import STABLE_LINK_S, NodeTurns
+from dronefleet.messaging.read_buffer import read_buffered
 from dronefleet.messaging.url import BrokerNode, BrokerUrl
 
 log = logging.getLogger(__name__)
@@ -148,6 +149,7 @@ class Connection:
                 # Set before connecting: a resumed session's messages come with the CONNACK.
                 self._paho = connection._client
                 closed_before_connack_fails(connection)
+                read_buffered(connection)  # many packets per read (messaging/read_buffer.py)
                 async with linked(connection, turns.connack_s()) as client:
                     self._client = client
                     self._link_lost = asyncio.Event()

@@ -171,7 +171,7 @@ async def test_a_message_is_compared_only_with_the_drones_near_it_whatever_the_f
     mon, _, _ = monitor
     compared = []
     for count in (10, 1000):
-        for kept in (mon.tracks, mon._grid, mon._cube_of, mon._partners, mon.encounters):
+        for kept in (mon.tracks, mon.grid, mon._partners, mon.encounters):
             kept.clear()
         for i in range(count):  # a fleet on a 300 m grid, every drone in the air
             await feed(mon, f"D{i}", 300.0 * (i // 40), 300.0 * (i % 40), 20)
@@ -231,6 +231,7 @@ def test_pairs_left_out_as_out_of_reach_never_breach_on_their_courses() -> None:
 
     rng = random.Random(27)
     monitor = SeparationMonitor("local://bus-reach", client_id="x")
+    horizon = monitor.horizon_s
     skipped = 0
     for _ in range(20_000):
         tracks = []
@@ -248,9 +249,9 @@ def test_pairs_left_out_as_out_of_reach_never_breach_on_their_courses() -> None:
             assert track is not None
             tracks.append(track)
         a, b = tracks
-        rel = monitor._relative(a, b, 0.0)
+        rel = sm._relative(a, b, 0.0)
         flat = math.hypot(rel[0], rel[1])
-        if monitor._out_of_reach(a, b, rel, flat):
+        if sm._out_of_reach(a, b, flat, rel[2], horizon):
             skipped += 1
             assert monitor._foreseen(a, b, rel, 0.0) is None, (a, b)
     assert 1_000 < skipped < 19_000
