@@ -14,6 +14,12 @@ what paho asks for from that. Its ``pending()`` says how much is held, and aiomq
 ``loop_read`` again while ``pending()`` is above zero (as it does for an ``SSLSocket``'s decrypted
 bytes), so nothing held waits for the socket to be readable again. TLS sockets are wrapped the
 same way: their ``SSLWantReadError`` passes through to paho, which handles it.
+
+One turn of the event loop takes one read's packets, no more: the socket is read ahead only for
+a packet's first byte, and a packet the read ended in is finished with a read of just its rest,
+so the turn ends there. Reading ahead for that rest too let one connection's backlog be read
+whole in a turn, while the others (the ground's heartbeats have a connection of their own, so
+that they never wait for telemetry: ground/inbox.py) waited.
 """
 
 from __future__ import annotations
@@ -37,7 +43,11 @@ class BufferedSocket:
     def recv(self, size: int) -> bytes:
         held, at = self._held, self._at
         if at >= len(held):
-            data: bytes = self._sock.recv(max(size, READ_BYTES))
+            if size > 1:
+                # The rest of a packet the last read ended in: only that, so that this turn of
+                # the event loop ends with the packet and the other connections get theirs.
+                return bytes(self._sock.recv(size))
+            data: bytes = self._sock.recv(READ_BYTES)  # a new packet's first byte: read ahead
             if len(data) <= size:  # all of it (or b"" at the end of the stream)
                 return data
             self._held, self._at = data, size

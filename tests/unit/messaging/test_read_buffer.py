@@ -100,3 +100,17 @@ def test_what_paho_and_aiomqtt_use_of_the_socket_is_the_sockets(pair) -> None:
     assert receiver.getblocking()
     buffered.close()
     assert receiver.fileno() == -1
+
+
+def test_the_rest_of_a_packet_is_read_alone_so_a_turn_ends_with_it(pair) -> None:
+    """A read ahead for a packet's rest would take the next packets too: one connection's
+    backlog read whole in one turn of the event loop, the others waiting."""
+    sender, receiver = pair
+    sender.sendall(b"\x30" + b"a" * 99)
+    buffered = BufferedSocket(receiver)
+    assert buffered.recv(1) == b"\x30"  # a packet's first byte: read ahead
+    assert buffered.recv(200) == b"a" * 99  # what is held of it (a short read)
+    sender.sendall(b"b" * 101 + b"\x30next")  # its rest, then the next packet
+    assert buffered.recv(101) == b"b" * 101
+    assert buffered.pending() == 0  # the turn ends: the next packet waits for the next one
+    assert buffered.recv(1) == b"\x30" and buffered.pending() == 4

@@ -102,16 +102,19 @@ export async function mount(root, ctx) {
     }
     overlay.update();
     if (!fitted && points.length) {
-      map.fitBounds(L.latLngBounds(points).pad(0.5), { maxZoom: 19 });
+      // At once, not animated: a page left during Leaflet's zoom animation had its map removed
+      // under it ("Cannot read properties of undefined (reading '_leaflet_pos')", CI).
+      map.fitBounds(L.latLngBounds(points).pad(0.5), { maxZoom: 19, animate: false });
       fitted = true;
     }
   }
 
   let pending = false;
+  let gone = false; // the page was left: a frame asked for before must not touch the removed map
   const onChange = () => {
     if (pending) return;
     pending = true;
-    requestAnimationFrame(() => { pending = false; render(); });
+    requestAnimationFrame(() => { pending = false; if (!gone) render(); });
   };
   ctx.fleet.addEventListener("change", onChange);
   const ticker = setInterval(render, 2000);
@@ -119,6 +122,7 @@ export async function mount(root, ctx) {
   missions.refresh();
   render();
   return () => {
+    gone = true;
     panel.destroy();
     ctx.fleet.removeEventListener("change", onChange);
     clearInterval(ticker);
