@@ -57,13 +57,14 @@ from dronefleet import virtual_loop
 from dronefleet.drone.config import DroneConfig
 from dronefleet.geo.types import LLA
 from dronefleet.ground.identifier import EVENTS_TOPIC
+from dronefleet.heap import settle_heap
 from dronefleet.messaging.broker_users import BrokerRole
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
 from dronefleet.messaging.embedded import EmbeddedBroker
 from dronefleet.messaging.url import BrokerUrl
 from dronefleet.sim.homes import homes_around
-from dronefleet.simfleet import SimFleet, settle_heap
+from dronefleet.simfleet import SimFleet
 from mqtt_load import proc_cpu_s, proc_rss_mb
 
 HOME = LLA(40.63, -8.659, 10.0)

@@ -17,11 +17,12 @@ from pathlib import Path
 from dronefleet import virtual_loop
 from dronefleet.drone.config import DroneConfig
 from dronefleet.ground.identifier import EVENTS_TOPIC
+from dronefleet.heap import settle_heap
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.codec import decode_object
 from dronefleet.messaging.local_bus import LocalBus
 from dronefleet.sim.homes import homes_around
-from dronefleet.simfleet import SimFleet, settle_heap
+from dronefleet.simfleet import SimFleet
 from sim_scale import HEARTBEAT_S, HOME, rss_mb
 
 

@@ -255,11 +255,12 @@ async def _demo(args: argparse.Namespace) -> int:
     from dronefleet.ground.manager.auth import TokenBook
     from dronefleet.ground.services import GroundServices
     from dronefleet.ground.telemetry.store import sqlite_url
+    from dronefleet.heap import settle_heap
     from dronefleet.messaging.broker_users import BrokerRole
     from dronefleet.messaging.embedded import EmbeddedBroker
     from dronefleet.messaging.local_bus import LocalBus
     from dronefleet.sim.homes import homes_around
-    from dronefleet.simfleet import SimFleet, settle_heap
+    from dronefleet.simfleet import SimFleet
 
     stop = stop_event()
     home = parse_lla(DEFAULT_HOME)

@@ -14,7 +14,6 @@ from typing import Any
 from dronefleet.drone.app import DroneApp
 from dronefleet.drone.config import DroneConfig
 from dronefleet.geo.types import LLA
-from dronefleet.heap import settle_heap as settle_heap  # the fleet's callers settle it
 from dronefleet.messaging.url import BrokerUrl
 from dronefleet.sim.camera import SimCamera
 from dronefleet.sim.flight_controller import SimFlightController

@@ -42,12 +42,6 @@ class NeighbourGrid:
         #: The sorted drones of the 27 cubes around a cube, kept until one of them changes.
         self._around: dict[Cube, tuple[str, ...]] = {}
 
-    def __len__(self) -> int:
-        return len(self._cube_of)
-
-    def cube(self, drone_id: str) -> Cube | None:
-        return self._cube_of.get(drone_id)
-
     def place(self, drone_id: str, cube: Cube | None) -> None:
         """``drone_id`` is now in ``cube`` (None: in no cube, e.g. on the ground)."""
         old = self._cube_of.get(drone_id)

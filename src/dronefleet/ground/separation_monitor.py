@@ -23,16 +23,14 @@ actual) with the smallest separations seen, served at ``GET /api/v1/separation``
 the experiments.
 
 Each message of a drone in the air is compared only with the drones in the air near it, found
-in a grid of :data:`CELL_M`-metre cubes on the Earth-centred frame (the 27 cubes around it), and
-a drone on the ground only with those it has an encounter with (to end it): the cost per
-message does not grow with the fleet (issue 27; before, every message was compared with every
-track, O(N) per message and the ground's largest cost at 100 drones). Two drones more than a
-cube apart cannot breach within the horizon unless they close faster than
-``CELL_M / HORIZON_S`` (50 m/s); an encounter whose pair has drifted apart is cleared as before.
-
-Positions are compared in a local flat-earth approximation (metres per degree at the pair's
-latitude): at the few hundred metres where it matters it is within centimetres of the WGS84
-frame and costs no allocation per pair, so a fleet's telemetry never loads the event loop.
+in a grid of 150-metre cubes on the Earth-centred frame (the 27 cubes around it,
+ground/neighbour_grid.py), and a drone on the ground only with those it has an encounter with
+(to end it): the cost per message does not grow with the fleet (issue 27; before, every message
+was compared with every track, O(N) per message and the ground's largest cost at 100 drones).
+Two drones more than a cube apart cannot breach within the horizon unless they close faster
+than 50 m/s; an encounter whose pair has drifted apart is cleared as before. The tracks and the
+arithmetic of a pair (a local flat-earth approximation, within centimetres of WGS84 at the few
+hundred metres where it matters) are ground/separation_tracks.py's.
 """
 
 from __future__ import annotations
@@ -40,16 +38,25 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from pydantic import BaseModel, Field
 
 from dronefleet.clock import monotonic, timestamp_s
-from dronefleet.ground.courses import Course, breach_along, course_to
+from dronefleet.ground.courses import breach_along
 from dronefleet.ground.inbox import FleetInbox
-from dronefleet.ground.neighbour_grid import NeighbourGrid, cube_of
+from dronefleet.ground.neighbour_grid import NeighbourGrid
 from dronefleet.ground.planner.separation import HORIZONTAL_M, VERTICAL_M, WARNING_HORIZON_S
+from dronefleet.ground.separation_tracks import (
+    Track,
+    age,
+    cube,
+    offset,
+    origin,
+    out_of_reach,
+    track_of,
+)
 from dronefleet.messaging.client import BrokerClient
 from dronefleet.messaging.commands import AlarmLevel
 from dronefleet.messaging.common import Position
@@ -66,11 +73,6 @@ HORIZON_S = WARNING_HORIZON_S
 CLEAR_S = 3.0
 #: A drone not heard for this long is not compared (its last position says little).
 STALE_S = 5.0
-#: Positions are moved on by their velocity at most this long (old telemetry is not a forecast).
-MAX_EXTRAPOLATION_S = 1.0
-_M_PER_DEG = 111_320.0
-#: The neighbour grid's cube side (see the module's docstring).
-CELL_M = 150.0
 _AIRBORNE = frozenset({FlightState.TAKING_OFF, FlightState.FLYING, FlightState.LANDING})
 
 
@@ -92,39 +94,6 @@ class SeparationStatus(BaseModel):
     )
     pairs_compared: int = Field(default=0, description="pair comparisons made")
     active: list[str] = Field(default_factory=list, description="pairs in an encounter now")
-
-
-@dataclass
-class _Track:
-    lat: float
-    lon: float
-    alt_m: float
-    vn: float = 0.0
-    ve: float = 0.0
-    vd: float = 0.0
-    in_air: bool = False
-    seen_s: float = 0.0  # monotonic() when heard
-    vehicle_time_s: float = 0.0
-    telemetry_s: float = -math.inf  # monotonic() of its last telemetry
-    course: Course = field(default_factory=lambda: Course((0.0, 0.0, 0.0)))  # what it flies next
-    #: The fastest it may move on its course, over the ground and up or down (m/s).
-    flat_mps: float = 0.0
-    climb_mps: float = 0.0
-
-
-def _course(f: dict[str, float]) -> Course:
-    """What a drone whose telemetry fields are ``f`` is expected to fly next: on to the goal
-    they name, if any (ground/courses.py). Worked out once per message, not once per pair."""
-    vel = (f.get("vn", 0.0), f.get("ve", 0.0), -f.get("vd", 0.0))
-    if not {"goal_lat", "goal_lon", "goal_alt_m"} <= f.keys():
-        return course_to(vel, None)
-    east_m_per_deg = _M_PER_DEG * math.cos(math.radians(f["lat"]))
-    to_goal = (
-        (f["goal_lat"] - f["lat"]) * _M_PER_DEG,
-        _dlon(f["lon"], f["goal_lon"]) * east_m_per_deg,
-        f["goal_alt_m"] - f["alt_m"],
-    )
-    return course_to(vel, to_goal)
 
 
 @dataclass(slots=True)
@@ -169,7 +138,7 @@ class SeparationMonitor:
         self.inbox = inbox or FleetInbox(broker_url, client_id=f"{client_id}-inbox")
         self._own_inbox = inbox is None
         self.horizon_s = horizon_s
-        self.tracks: dict[str, _Track] = {}
+        self.tracks: dict[str, Track] = {}
         self.encounters: dict[tuple[str, str], _Encounter] = {}
         #: The counts, a plain object (a pydantic model's attribute writes cost per pair).
         self.counts = _Counts()
@@ -200,16 +169,7 @@ class SeparationMonitor:
 
     def status(self) -> SeparationStatus:
         active = sorted(f"{a}/{b}" for a, b in self.encounters)
-        c = self.counts
-        return SeparationStatus(
-            horizon_s=self.horizon_s,
-            active=active,
-            predicted_breaches=c.predicted_breaches,
-            actual_breaches=c.actual_breaches,
-            min_distance_m=c.min_distance_m,
-            min_horizontal_m=c.min_horizontal_m,
-            pairs_compared=c.pairs_compared,
-        )
+        return SeparationStatus(horizon_s=self.horizon_s, active=active, **asdict(self.counts))
 
     # -- input ---------------------------------------------------------------------------------
     async def _on_telemetry(self, topic_name: str, payload: bytes) -> None:
@@ -224,7 +184,7 @@ class SeparationMonitor:
         """A drone's telemetry as the inbox read it: its track moved, compared with its
         neighbours."""
         now = monotonic()
-        track = _track_of(msg, now)
+        track = track_of(msg, now)
         if track is not None:
             self._place(msg.drone_id, track)
             await self._compare(msg.drone_id, now)
@@ -233,7 +193,7 @@ class SeparationMonitor:
         """Another replica's drone, from its picture: placed as a neighbour, compared by its
         owner (its age counted from its timestamp, at most :data:`MAX_EXTRAPOLATION_S`)."""
         now = monotonic()
-        track = _track_of(msg, now - min(max(timestamp_s() - msg.timestamp, 0.0), STALE_S))
+        track = track_of(msg, now - min(max(timestamp_s() - msg.timestamp, 0.0), STALE_S))
         if track is not None:
             self._place(msg.drone_id, track)
 
@@ -244,63 +204,66 @@ class SeparationMonitor:
         if known is not None and now - known.telemetry_s < STALE_S:
             return  # its telemetry says more (velocity too), and more often
         p = hb.position
-        track = _Track(p.lat, p.lon, p.alt_m, in_air=hb.state in _AIRBORNE, seen_s=now)
+        track = Track(p.lat, p.lon, p.alt_m, in_air=hb.state in _AIRBORNE, seen_s=now)
         track.vehicle_time_s = hb.vehicle_time_s
         self._place(hb.drone_id, track)
         await self._compare(hb.drone_id, now)
 
     # -- comparison ----------------------------------------------------------------------------
     def _foreseen(
-        self, a: _Track, b: _Track, rel: tuple[float, float, float], now: float
+        self, a: Track, b: Track, rel: tuple[float, float, float], now: float
     ) -> float | None:
         """When, on their courses (ground/courses.py), ``a`` and ``b`` would be within the
         minima; None: not within the horizon."""
-        a_course, b_course = a.course.later(_age(a, now)), b.course.later(_age(b, now))
+        a_course, b_course = a.course.later(age(a, now)), b.course.later(age(b, now))
         return breach_along(rel, a_course, b_course, self.horizon_s)
 
-    def _place(self, drone_id: str, track: _Track) -> None:
+    def _place(self, drone_id: str, track: Track) -> None:
         """Keep ``track`` as the drone's latest and, while it is in the air, in the cube of the
         grid it is in: only drones in the air are compared, so a crowd on the ground (a fleet
         waiting at its homes, 36 drones a cube in bench/sim_scale.py's 1000) costs a message
         nothing (issue 27)."""
         self.tracks[drone_id] = track
-        self.grid.place(drone_id, _cube(track) if track.in_air else None)
+        self.grid.place(drone_id, cube(track) if track.in_air else None)
 
     def _near(self, drone_id: str) -> set[str]:
         """The drones in the air in the 27 cubes around ``drone_id``'s when it is in the air,
         and those it has an encounter with (so that one ends even when they have drifted apart
         or landed)."""
-        return set(self._others(drone_id))
+        return set(self._around(drone_id)) - {drone_id}
 
-    def _others(self, drone_id: str) -> tuple[str, ...]:
-        """:meth:`_near`, sorted (alarms come in the same order whatever the sets' order); the
-        grid's kept tuple itself when the drone has no encounter, the usual case."""
+    def _around(self, drone_id: str) -> tuple[str, ...]:
+        """:meth:`_near`, sorted (alarms come in the same order whatever the sets' order), and
+        ``drone_id`` itself when in the air: the grid's kept tuple when the drone has no
+        encounter, the usual case, so a message builds nothing."""
         around = self.grid.around(drone_id)
         partners = self._partners.get(drone_id)
         if partners:
             around = tuple(sorted(set(around) | partners))
-        return tuple(d for d in around if d != drone_id and d in self.tracks)
+        return around
 
     async def _compare(self, drone_id: str, now: float) -> None:
         """``drone_id``'s track against each neighbour's."""
         tracks, counts, horizon = self.tracks, self.counts, self.horizon_s
         me = tracks[drone_id]
-        origin = _origin(me, now)  # once for all its neighbours
-        for other_id in self._others(drone_id):
+        here = origin(me, now)  # once for all its neighbours
+        for other_id in self._around(drone_id):
+            if other_id == drone_id:
+                continue
             other = tracks[other_id]
             pair = (drone_id, other_id) if drone_id < other_id else (other_id, drone_id)
             if not (me.in_air and other.in_air) or now - other.seen_s > STALE_S:
                 if pair in self.encounters:
                     await self._clear(pair, now)
                 continue
-            rel = _offset(origin, other, now)
+            rel = offset(here, other, now)
             flat, u = math.hypot(rel[0], rel[1]), rel[2]
             counts.measure(flat, u)
             if flat < HORIZONTAL_M and abs(u) < VERTICAL_M:
                 await self._raise(pair, AlarmLevel.CRITICAL, me, other, rel, 0.0)
                 continue
             ahead = None
-            if not _out_of_reach(me, other, flat, u, horizon):
+            if not out_of_reach(me, other, flat, u, horizon):
                 ahead = self._foreseen(me, other, rel, now)
             if ahead is not None:
                 await self._raise(pair, AlarmLevel.WARNING, me, other, rel, ahead)
@@ -327,8 +290,8 @@ class SeparationMonitor:
         self,
         pair: tuple[str, str],
         level: AlarmLevel,
-        me: _Track,
-        other: _Track,
+        me: Track,
+        other: Track,
         rel: tuple[float, float, float],
         ahead_s: float,
     ) -> None:
@@ -352,8 +315,8 @@ class SeparationMonitor:
         self,
         pair: tuple[str, str],
         level: AlarmLevel,
-        me: _Track,
-        other: _Track,
+        me: Track,
+        other: Track,
         rel: tuple[float, float, float],
         ahead_s: float,
     ) -> None:
@@ -387,69 +350,3 @@ class SeparationMonitor:
             await self.client.publish(SEPARATION_ALARMS, alarm, qos=1)
         except Exception as exc:  # the counts stand; the stream misses this one
             log.warning("separation alarm not published: %s", exc)
-
-
-def _track_of(msg: Telemetry, seen_s: float) -> _Track | None:
-    """The track ``msg`` says, heard at ``seen_s`` (monotonic); None without a position."""
-    f = msg.fields
-    if not {"lat", "lon", "alt_m"} <= f.keys():
-        return None
-    track = _Track(f["lat"], f["lon"], f["alt_m"], f.get("vn", 0.0), f.get("ve", 0.0))
-    track.vd, track.in_air = f.get("vd", 0.0), bool(f.get("in_air", 0.0))
-    course = track.course = _course(f)
-    track.flat_mps, track.climb_mps = math.hypot(course.vel[0], course.vel[1]), abs(course.vel[2])
-    track.seen_s = track.telemetry_s = seen_s
-    track.vehicle_time_s = msg.vehicle_time_s
-    return track
-
-
-def _relative(a: _Track, b: _Track, now: float) -> tuple[float, float, float]:
-    """Where ``b`` is from ``a`` (n, e, up metres), now."""
-    return _offset(_origin(a, now), b, now)
-
-
-#: A track as the origin of :func:`_offset`: metres per degree east at its latitude, its
-#: latitude and longitude, and how far its velocity has moved it on (n, e) and its height.
-_Origin = tuple[float, float, float, float, float, float]
-
-
-def _origin(a: _Track, now: float) -> _Origin:
-    """What :func:`_offset` needs of ``a``, worked out once for all its neighbours."""
-    da = _age(a, now)
-    east_m_per_deg = _M_PER_DEG * math.cos(math.radians(a.lat))
-    return east_m_per_deg, a.lat, a.lon, a.vn * da, a.ve * da, a.alt_m - a.vd * da
-
-
-def _offset(origin: _Origin, b: _Track, now: float) -> tuple[float, float, float]:
-    """Where ``b`` is from the track ``origin`` was made of (n, e, up metres), now."""
-    east_m_per_deg, lat, lon, an, ae, au = origin
-    db = min(max(now - b.seen_s, 0.0), MAX_EXTRAPOLATION_S)  # _age, inline: once per pair
-    n = (b.lat - lat) * _M_PER_DEG + b.vn * db - an
-    e = ((b.lon - lon + 180.0) % 360.0 - 180.0) * east_m_per_deg + b.ve * db - ae  # _dlon
-    return n, e, (b.alt_m - b.vd * db) - au
-
-
-def _out_of_reach(a: _Track, b: _Track, flat: float, up: float, horizon_s: float) -> bool:
-    """Whether ``a`` and ``b``, ``flat`` metres apart over the ground and ``up`` metres apart
-    vertically, are too far apart to come within the minima in ``horizon_s`` at any speed their
-    courses allow (each at most its own, so they close at most at the sum): most neighbours are,
-    and the courses are then not worked out (issue 27: it was the monitor's largest cost per
-    message, on drones hovering 200 m apart)."""
-    if flat - (a.flat_mps + b.flat_mps) * horizon_s >= HORIZONTAL_M:
-        return True
-    return abs(up) - (a.climb_mps + b.climb_mps) * horizon_s >= VERTICAL_M
-
-
-def _age(track: _Track, now: float) -> float:
-    """How far its last position is moved on by its velocity (bounded: see MAX_EXTRAPOLATION_S)."""
-    return min(max(now - track.seen_s, 0.0), MAX_EXTRAPOLATION_S)
-
-
-def _cube(track: _Track) -> tuple[int, int, int]:
-    """The neighbour grid's cube (:data:`CELL_M`) of ``track``'s position."""
-    return cube_of(track.lat, track.lon, track.alt_m, CELL_M)
-
-
-def _dlon(from_deg: float, to_deg: float) -> float:
-    """Degrees of longitude from one to the other the short way (across the antimeridian too)."""
-    return (to_deg - from_deg + 180.0) % 360.0 - 180.0

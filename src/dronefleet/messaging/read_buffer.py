@@ -5,7 +5,7 @@ each byte of the remaining length, then the rest), and aiomqtt calls paho's ``lo
 each time the event loop finds the socket readable: a system call or three and a turn of the
 event loop for every message. At 5 Hz telemetry from a thousand drones that was a third of the
 cost of receiving a message (bench: 23 us of CPU per message through a broker client with a
-handler that does nothing; 15-18 us with these reads).
+handler that does nothing; 12.5-13 us with these reads).
 
 :class:`BufferedSocket` is what paho's own websocket transport is (``_WebsocketWrapper``): an
 object with paho's ``SocketLike`` methods (``recv``, ``send``, ``close``, ``fileno``,

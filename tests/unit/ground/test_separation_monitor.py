@@ -12,6 +12,7 @@ import pytest
 from dronefleet.geo.ned import ned_to_lla
 from dronefleet.geo.types import LLA, NED
 from dronefleet.ground import separation_monitor as sm
+from dronefleet.ground import separation_tracks as st
 from dronefleet.ground.courses import Course, breach_along, breach_within, course_to
 from dronefleet.ground.separation_monitor import CLEAR_S, SeparationMonitor
 from dronefleet.messaging.status import Alarm, Telemetry
@@ -245,13 +246,13 @@ def test_pairs_left_out_as_out_of_reach_never_breach_on_their_courses() -> None:
                               goal_lon=fields["lon"] + rng.uniform(-3e-4, 3e-4),
                               goal_alt_m=rng.uniform(20, 40))  # fmt: skip
             msg = Telemetry(drone_id="QUAD_1", vehicle_time_s=1.0, fields=fields)
-            track = sm._track_of(msg, 0.0)
+            track = st.track_of(msg, 0.0)
             assert track is not None
             tracks.append(track)
         a, b = tracks
-        rel = sm._relative(a, b, 0.0)
+        rel = st.relative(a, b, 0.0)
         flat = math.hypot(rel[0], rel[1])
-        if sm._out_of_reach(a, b, flat, rel[2], horizon):
+        if st.out_of_reach(a, b, flat, rel[2], horizon):
             skipped += 1
             assert monitor._foreseen(a, b, rel, 0.0) is None, (a, b)
     assert 1_000 < skipped < 19_000
