@@ -103,7 +103,11 @@ def flown_as_planned(detail: dict[str, Any]) -> None:
     """A mission's REST detail: completed on its primary legs, nothing handed over, every
     waypoint reported flown exactly once (the process tests' end-to-end check)."""
     assert detail["state"] == "completed", (detail["state"], detail["error"])
-    assert not detail["handovers"] and not detail.get("takeovers_cancelled")
+    assert not detail["handovers"] and not detail.get("takeovers_cancelled"), (
+        detail["handovers"],
+        detail.get("takeovers_cancelled"),
+        [(leg["drone_id"], leg["role"], leg["state"], leg.get("error")) for leg in detail["legs"]],
+    )
     assert {leg["role"] for leg in detail["legs"]} == {"primary"}, detail["legs"]
     assert all(leg["state"] == "completed" for leg in detail["legs"]), detail["legs"]
     waypoints = Counter(
