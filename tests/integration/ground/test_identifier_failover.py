@@ -6,11 +6,16 @@ Drone Identifier watches each node with an idle link and does not count that tim
 real Mosquittos stand for two nodes of a cluster (the watch sees only its links): a drone beats
 on the first; the second is killed and the drone falls silent at the same moment. It is not
 declared lost while the cluster fails over, and is right after, once its own lost-after time of
-silence has passed.
+silence has passed. The failover lasts until the nodes still linked work again (a probe through
+each comes back), however long that takes: the first node is paused (SIGSTOP: linked, deaf)
+for longer than the shortest failover, and the silence is counted only once it answers again.
 """
 
 from __future__ import annotations
 
+import asyncio
+import os
+import signal
 import time
 
 import pytest
@@ -28,6 +33,7 @@ from .test_identifier_stalled import BeatingDrone
 pytestmark = pytest.mark.integration
 
 FAILOVER_S = 3.0  # the test's (the default is 25 s)
+SETTLE_S = 2.0  # the test's (the default is 11 s)
 
 
 def test_a_single_broker_has_no_nodes_to_watch():
@@ -43,6 +49,7 @@ async def test_a_drone_silent_while_the_cluster_fails_over_is_lost_only_after_it
     state = await StateStore(tmp_path / "g.db").open()
     identifier = DroneIdentifier(cluster, state, client_id="id-failover")
     identifier.nodes.failover_s = FAILOVER_S
+    identifier.nodes.settle_s = SETTLE_S
     await identifier.start()
     drone = BeatingDrone(first.url, "FAILOVER_1")
     drone.start()
@@ -61,6 +68,49 @@ async def test_a_drone_silent_while_the_cluster_fails_over_is_lost_only_after_it
         assert identifier.nodes.nodes_lost == 1
         assert identifier.awake.deaf_s >= FAILOVER_S - 0.2
     finally:
+        drone.stop()
+        await identifier.stop()
+        await state.close()
+        first.stop()
+        second.stop()
+
+
+async def test_the_failover_lasts_until_the_linked_nodes_work_again(tmp_path):
+    first, second = Mosquitto(tmp_path), Mosquitto(tmp_path)
+    first.start()
+    second.start()
+    cluster = BrokerUrl("127.0.0.1", first.port, more_nodes=(BrokerNode("127.0.0.1", second.port),))
+    state = await StateStore(tmp_path / "g.db").open()
+    identifier = DroneIdentifier(cluster, state, client_id="id-probe")
+    identifier.nodes.failover_s = 1.0
+    identifier.nodes.settle_s = SETTLE_S
+    await identifier.start()
+    drone = BeatingDrone(first.url, "FAILOVER_2")
+    drone.start()
+    assert first.proc is not None
+    paused = False
+    try:
+        record = await eventually(lambda: identifier.fleet.get("FAILOVER_2"), timeout_s=5)
+        await eventually(lambda: record.clock_rate is not None, timeout_s=5)
+        await eventually(lambda: all(link.connected for link in identifier.nodes.links), 5)
+        second.stop(kill=True)
+        drone.stop()
+        os.kill(first.proc.pid, signal.SIGSTOP)  # linked still, but nothing comes back
+        paused = True
+        await asyncio.sleep(6.0)  # the shortest failover (1 s) and the drone's silence (2 s)
+        assert record.status is not DroneStatus.LOST, "lost while the cluster did not work"
+        assert identifier.nodes.failing_over()
+        os.kill(first.proc.pid, signal.SIGCONT)
+        paused = False
+        resumed = time.monotonic()
+        await eventually(lambda: record.status is DroneStatus.LOST, timeout_s=20)
+        took = time.monotonic() - resumed
+        # A probe passes within a second, then the settling time and the drone's own silence.
+        assert took >= SETTLE_S + 2.0 - 0.6, took
+        assert identifier.nodes.working_at > identifier.nodes.lost_at
+    finally:
+        if paused:
+            os.kill(first.proc.pid, signal.SIGCONT)
         drone.stop()
         await identifier.stop()
         await state.close()
