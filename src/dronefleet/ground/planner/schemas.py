@@ -113,9 +113,10 @@ class Preview(BaseModel):
     waypoints: list[LatLon]
     area_m2: float | None
     angle_deg: float | None  # the swaths' bearing; None for rings and step lists
-    #: How the area is flown: "swaths" (back and forth at angle_deg) or "rings" (its outline
-    #: flown inward, chosen on small areas where clearly quicker); None for step lists.
-    pattern: Literal["swaths", "rings"] | None = None
+    #: How the area is flown: "swaths" (back and forth at angle_deg), "rings" (its outline
+    #: flown inward) or "headland" (its outline flown once, then swaths inside); the last two
+    #: only on small areas where they are quicker; None for step lists.
+    pattern: Literal["swaths", "rings", "headland"] | None = None
     spacing_m: float | None
     #: What the area's coverage target left uncovered: m², and the pieces as [lat, lon] rings.
     uncovered_m2: float | None = None

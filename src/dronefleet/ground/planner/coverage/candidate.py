@@ -46,7 +46,8 @@ class Candidate:
     length_m: float = 0.0
     gaps: list[Gap] | None = None  # what the route leaves, before spurs
     guess: float = 0.0  # its time with a spur to each gap (seconds)
-    rings: bool = False  # the contour route (:mod:`.contour`), not swaths at ``angle``
+    #: "swaths" at ``angle``, "rings" (:mod:`.contour`) or "headland" (:mod:`.headland`)
+    pattern: str = "swaths"
 
     @property
     def key(self) -> tuple[float, float]:

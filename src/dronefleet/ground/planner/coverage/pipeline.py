@@ -5,7 +5,8 @@ Fields2Cover): project to a local plane → shortlist angles → for each, swath
 cells → route over the whole field (solver, transits inside the area) → path (waypoints) → close
 the gaps up to the coverage target → keep the angle whose route flies quickest (then shortest) →
 below a 100 % target, pull its ends in (:mod:`.ends`) → back to LLA. ``plan_area(spec)`` runs
-the default pipeline.
+the default pipeline. Small areas are also offered rings (:mod:`.contour`) and a headland,
+the outline flown once and swaths inside it (:mod:`.headland`), where those are chosen.
 
 Planning a route for every angle tried would be slow, so angles are first keyed quickly
 (:mod:`.angle`: turns and swath length) and only a shortlist — the best key, the best hull side
@@ -57,6 +58,7 @@ from dronefleet.ground.planner.coverage.cost import RouteTime
 from dronefleet.ground.planner.coverage.decompose import BoustrophedonDecomposer
 from dronefleet.ground.planner.coverage.ends import trimmed
 from dronefleet.ground.planner.coverage.gaps import SLIVER_SPACINGS, GapFiller
+from dronefleet.ground.planner.coverage.headland import headland_options, least_m
 from dronefleet.ground.planner.coverage.path import PathBuilder, RoutePoint, route_xy
 from dronefleet.ground.planner.coverage.plan import PICTURE_S, CoveragePlan
 from dronefleet.ground.planner.coverage.project import LocalProjection
@@ -89,6 +91,8 @@ CONTOUR_ANGLE = 90.0
 #: Outlines with more vertices than this are not offered rings: a traced 240-vertex outline's
 #: rings and their gaps took 115 ms more to plan and never won.
 CONTOUR_VERTICES = 100
+#: Inner swath angles a headland route is tried at (:meth:`CoveragePipeline._or_headland`).
+HEADLAND_ANGLES = 3
 #: Largest area (in spacing-squares, see SHORTLIST) whose gaps are closed by detours first.
 DETOUR_SQUARES = 260
 
@@ -101,6 +105,7 @@ class CoveragePipeline:
     timing: RouteTime = field(default_factory=RouteTime)
     fill_gaps: bool = True
     contours: bool = True  # small areas may be flown ring by ring (:mod:`.contour`)
+    headlands: bool = True  # or along the outline once, then in swaths (:mod:`.headland`)
     detours: bool = True  # gaps closed by bending the route's legs, not by spurs alone
 
     def plan(self, spec: AreaSpec) -> CoveragePlan:
@@ -141,6 +146,8 @@ class CoveragePipeline:
             best = self._search(spec, found, filler)
         if self.contours and spec.angle_deg is None and spec.grid == Grid.INSET:
             best = self._or_contour(spec, area, first, best, filler)
+        if self.headlands and spec.angle_deg is None and spec.grid == Grid.INSET:
+            best = self._or_headland(spec, area, first, best, filler)
         if filler is not None:  # after the choice: pulling a route's ends in only shortens it
             ends = replace(filler, builder=best.builder)
             best.points, best.left = trimmed(best.points, best.sweep_area, best.left, ends)
@@ -159,7 +166,7 @@ class CoveragePipeline:
             swaths=[
                 LineString([from_sweep_xy(*p.start, angle), from_sweep_xy(*p.end, angle)])
                 for p in best.routed.passes
-                if isinstance(p, Pass) or best.rings  # a ring's sides are its passes
+                if isinstance(p, Pass) or best.pattern != "swaths"  # a ring's sides are passes
             ],
             points=local,
             waypoints=waypoints,
@@ -167,7 +174,7 @@ class CoveragePipeline:
             cells=len(best.cells),
             uncovered=left,
             uncovered_rings=[_rings(projection, g) for g in left],
-            pattern="rings" if best.rings else "swaths",
+            pattern=best.pattern,
         )
 
     def layout(
@@ -260,7 +267,7 @@ class CoveragePipeline:
         if routed is None:
             return best
         ring = Candidate(CONTOUR_ANGLE, area, [], builder, first, routed, hold_s=best.hold_s)
-        ring.rings = True
+        ring.pattern = "rings"
         ring.points = contour_points(builder, routed)
         self._cost(spec, best)
         beat = best.time_s * (1.0 - SAME_TIME)
@@ -274,6 +281,59 @@ class CoveragePipeline:
             self.close_gaps(ring, filler, over)
         self._cost(spec, ring)
         return ring if ring.time_s < beat else best
+
+    def _or_headland(
+        self,
+        spec: AreaSpec,
+        area: Polygon,
+        first: tuple[float, float],
+        best: Candidate,
+        filler: GapFiller | None,
+    ) -> Candidate:
+        """The headland route (:mod:`.headland`) where it is :func:`chosen` over ``best``: as
+        quick within :data:`~.candidate.SAME_TIME` and shorter, or quicker by more. Small areas
+        only, as rings (:data:`DETOUR_SQUARES`, :data:`CONTOUR_VERTICES`).
+
+        Its inner swaths are tried at :data:`HEADLAND_ANGLES` angles, ranked as the swaths'
+        angles are (:meth:`_guess`: a spur to each gap) and closed in that order while they can
+        still be chosen (:func:`beaten`, closing gaps only adds to a route). An option that can no
+        longer be chosen by what any route through its passes is at least (:func:`least_m`), or
+        by its route before its gaps, is dropped before it is routed or guessed."""
+        builder = best.builder
+        if area.area / builder.spacing_m**2 > DETOUR_SQUARES or _vertices(area) > CONTOUR_VERTICES:
+            return best
+        swaths = SwathGenerator(builder.spacing_m)
+        self._cost(spec, best)
+        done = [(best.time_s, best.length_m)]
+        found: list[Candidate] = []
+        base: Routed | None = None  # the options share their sides: their transits are reused
+        for passes in headland_options(area, swaths, self.angles, HEADLAND_ANGLES):
+            least = least_m(passes) if passes else math.inf
+            if beaten(least / self.timing.speed_mps, least, done):
+                continue
+            routed = base = self.orderer.reorder(list(passes), [], first, area, base)
+            head = Candidate(CONTOUR_ANGLE, area, [], builder, first, routed, hold_s=best.hold_s)
+            head.pattern = "headland"  # the outline flown once, then swaths inside
+            head.points = contour_points(builder, routed)
+            self._cost(spec, head)
+            if beaten(head.time_s, head.length_m, done):
+                continue
+            head.guess = head.time_s
+            if filler is not None:
+                self._guess(head, filler)
+            found.append(head)
+        closed = [best]
+        for head in sorted(found, key=lambda c: c.guess):
+            done = [(c.time_s, c.length_m) for c in closed]
+            if beaten(head.time_s, head.length_m, done):
+                continue
+            if filler is not None:
+                self.close_gaps(head, filler, self._beaten(head, done))
+                self._cost(spec, head)
+                if _uncovered(head) > max(filler.leave_m2, _uncovered(best)):
+                    continue  # gaps the filler's rounds could not close: never less covered
+            closed.append(head)
+        return chosen(closed)
 
     def filler(self, spec: AreaSpec, area: Polygon, spacing: float) -> GapFiller | None:
         """The gap filler for ``spec``'s coverage target (None when gaps are left open)."""
@@ -370,6 +430,11 @@ def shortlist_size(area: Polygon, spacing_m: float) -> int:
 def _vertices(area: Polygon) -> int:
     """The corners of an area's outline and holes (each ring's closing one counted)."""
     return len(area.exterior.coords) + sum(len(r.coords) for r in area.interiors)
+
+
+def _uncovered(c: Candidate) -> float:
+    """What ``c`` leaves uncovered (m²)."""
+    return float(sum(g.area for g in c.left))
 
 
 def _hold_s(spec: AreaSpec) -> float:

@@ -46,7 +46,7 @@ class CoveragePlan:
     extras: dict[str, Any] = field(default_factory=dict)
     uncovered: list[Polygon] = field(default_factory=list)  # those pieces, local plane
     uncovered_rings: list[list[tuple[float, float]]] = field(default_factory=list)  # [lat, lon]
-    pattern: str = "swaths"  # or "rings": the outline flown inward (coverage/contour.py)
+    pattern: str = "swaths"  # or "rings" (contour.py) or "headland" (headland.py)
 
     @property
     def coverage_pct(self) -> float:
