@@ -158,9 +158,11 @@ def fleet_process(
     pipe: Connection,
     stop: Any,
     counters: Any,
+    talking: int | None = None,
 ) -> None:
-    """The fake drones: connect, then stream until ``stop`` is set; reports on ``pipe``."""
-    asyncio.run(_fleet(port, drones, spacing_m, pipe, stop, counters))
+    """The fake drones: connect, then stream until ``stop`` is set; reports on ``pipe``. Only
+    the first ``talking`` send telemetry (all when None); the others only heartbeats."""
+    asyncio.run(_fleet(port, drones, spacing_m, pipe, stop, counters, talking))
 
 
 async def _fleet(
@@ -170,6 +172,7 @@ async def _fleet(
     pipe: Connection,
     stop: Any,
     counters: Any,
+    talking: int | None = None,
 ) -> None:
     where = grid(len(drones), spacing_m)
     fakes = {d: FakeDrone(d, *where[i]) for i, (d, _) in enumerate(drones)}
@@ -199,6 +202,7 @@ async def _fleet(
         sent,
         stop=stop.is_set,
         each_tick=each_tick,
+        talking=talking,
     )
     each_tick(sent)
     pipe.send(("done", (time.process_time() - cpu0) / max(sent.window_s, 1e-9)))

@@ -240,10 +240,13 @@ async def stream(
     seconds: float | None = None,
     stop: Callable[[], bool] | None = None,
     each_tick: Callable[[Sent], None] | None = None,
+    talking: int | None = None,
 ) -> None:
     """Telemetry at :data:`TELEMETRY_HZ` and a heartbeat every :data:`HEARTBEAT_S` per drone,
     spread over the ticks, for ``seconds`` or until ``stop()``. ``telemetry(i)`` and
-    ``heartbeat(i)`` give drone ``i``'s next packet."""
+    ``heartbeat(i)`` give drone ``i``'s next packet. Only the first ``talking`` drones (all
+    when None) send telemetry; the others only heartbeats."""
+    talkers = len(links) if talking is None else talking
     period = round(1 / TELEMETRY_HZ / TICK_S)  # ticks between one drone's telemetry
     beat = round(HEARTBEAT_S / TICK_S)
     loop = asyncio.get_running_loop()
@@ -253,7 +256,7 @@ async def stream(
         delay = began + tick * TICK_S - loop.time()
         if delay > 0:
             await asyncio.sleep(delay)
-        for i in range(tick % period, len(links), period):
+        for i in range(tick % period, talkers, period):
             transport = links[i].transport
             assert transport is not None
             if transport.is_closing() or transport.get_write_buffer_size() > SKIP_ABOVE:

@@ -112,6 +112,10 @@ async def sleep_awake(duration_s: float, *, tick_s: float = 0.1) -> float:
     return monotonic() - started
 
 
+#: The telemetry fields that make a drone's position.
+_POSITION_KEYS = ("lat", "lon", "alt_m", "relative_alt_m")
+
+
 def _private(record: BaseModel) -> dict[str, Any]:
     """``record``'s private attributes, read directly (see DroneRecord's)."""
     return cast(dict[str, Any], record.__pydantic_private__)
@@ -243,9 +247,9 @@ class DroneRecord(BaseModel):
     def track(self, vehicle_time_s: float, fields: dict[str, float]) -> None:
         """A telemetry message's position, if it has one (lat, lon and alt_m at least)."""
         if "lat" in fields and "lon" in fields and "alt_m" in fields:
-            keys = ("lat", "lon", "alt_m", "relative_alt_m")
-            tracked = (vehicle_time_s, {k: fields[k] for k in keys if k in fields})
-            _private(self)["_tracked"] = tracked
+            # The message's own fields, kept as they are (no copy per message, issue 27):
+            # position() takes the position's from them when it is asked.
+            _private(self)["_tracked"] = (vehicle_time_s, fields)
 
     def position(self) -> Any:
         """The newest position: from telemetry when newer than the last heartbeat's."""
@@ -253,7 +257,8 @@ class DroneRecord(BaseModel):
         tracked = _private(self)["_tracked"]
         if tracked is None or tracked[0] < self.heartbeat.get("vehicle_time_s", 0.0):
             return beat
-        return {**(beat or {}), **tracked[1]}
+        fields = tracked[1]
+        return {**(beat or {}), **{k: fields[k] for k in _POSITION_KEYS if k in fields}}
 
     def public(self, min_lost_after_s: float = MIN_LOST_AFTER_S) -> dict[str, Any]:
         """The JSON shape every API answer uses (seed Fig. 4.21, plus liveness)."""

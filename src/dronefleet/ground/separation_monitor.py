@@ -35,8 +35,10 @@ hundred metres where it matters) are ground/separation_tracks.py's.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
+import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -138,6 +140,9 @@ class SeparationMonitor:
         self.inbox = inbox or FleetInbox(broker_url, client_id=f"{client_id}-inbox")
         self._own_inbox = inbox is None
         self.horizon_s = horizon_s
+        #: The clocks messages are timed by: the running loop's once started (see start).
+        self._now: Callable[[], float] = monotonic
+        self._wall: Callable[[], float] = timestamp_s
         self.tracks: dict[str, Track] = {}
         self.encounters: dict[tuple[str, str], _Encounter] = {}
         #: The counts, a plain object (a pydantic model's attribute writes cost per pair).
@@ -149,6 +154,12 @@ class SeparationMonitor:
         self._partners: dict[str, set[str]] = {}  # drone -> drones it has an encounter with
 
     async def start(self) -> SeparationMonitor:
+        # The running loop's clocks, taken once: clock.monotonic() asks for the running loop at
+        # each call, and Python 3.11's get_running_loop() makes a getpid() system call each time
+        # (a fork check), three a message here (issue 27).
+        loop = asyncio.get_running_loop()
+        self._now = loop.time
+        self._wall = getattr(loop, "epoch_time", None) or time.time
         # Partitioned (ground/partition.py), a replica compares its own drones' messages; the
         # other replicas' drones are its neighbours, placed from their owners' pictures.
         self.inbox.telemetry.queued("separation monitor", self.on_telemetry, takes="own")
@@ -183,7 +194,7 @@ class SeparationMonitor:
     async def on_telemetry(self, msg: Telemetry) -> None:
         """A drone's telemetry as the inbox read it: its track moved, compared with its
         neighbours."""
-        now = monotonic()
+        now = self._now()
         track = track_of(msg, now)
         if track is not None:
             self._place(msg.drone_id, track)
@@ -192,14 +203,14 @@ class SeparationMonitor:
     def place_peer(self, msg: Telemetry) -> None:
         """Another replica's drone, from its picture: placed as a neighbour, compared by its
         owner (its age counted from its timestamp, at most :data:`MAX_EXTRAPOLATION_S`)."""
-        now = monotonic()
-        track = track_of(msg, now - min(max(timestamp_s() - msg.timestamp, 0.0), STALE_S))
+        now = self._now()
+        track = track_of(msg, now - min(max(self._wall() - msg.timestamp, 0.0), STALE_S))
         if track is not None:
             self._place(msg.drone_id, track)
 
     async def on_heartbeat(self, hb: Heartbeat) -> None:
         """A drone's heartbeat as the inbox read it: its track, when its telemetry is stale."""
-        now = monotonic()
+        now = self._now()
         known = self.tracks.get(hb.drone_id)
         if known is not None and now - known.telemetry_s < STALE_S:
             return  # its telemetry says more (velocity too), and more often

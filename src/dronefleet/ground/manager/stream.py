@@ -122,6 +122,8 @@ class StreamHub:
 
     def _relay(self, channel: Channel, msg: Heartbeat | Telemetry) -> None:
         """A heartbeat or telemetry as the inbox read it, to the clients that want it."""
+        if not self.listeners:
+            return  # nobody watching: a message costs nothing more here
         kind = KINDS[channel]
         wanting = [listener for listener in self.listeners if listener.wants(kind, msg.drone_id)]
         if not wanting:

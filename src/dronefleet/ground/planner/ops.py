@@ -10,6 +10,7 @@ drone home, save, finish or settle a mission, tell listeners, run a task).
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Mapping
 from typing import Any, Protocol
 
 from dronefleet.ground.planner.fleet_view import FleetView
@@ -19,11 +20,14 @@ from dronefleet.ground.planner.worker import PlanningWorker
 
 
 class PlannerOps(Protocol):
+    @property
+    def latest(self) -> Mapping[str, dict[str, Any]]:  # drone id -> its latest telemetry fields
+        ...
+
     fleet: FleetView
     worker: PlanningWorker
     reserve_pct: float
     max_altitude_m: float
-    latest: dict[str, dict[str, Any]]  # drone id -> its latest telemetry fields
     missions: dict[str, MissionRecord]  # every mission it knows (their legs are the traffic)
     lost: set[str]  # drones the Drone Identifier last declared lost
     lost_epochs: dict[str, int]  # drone id -> times it was declared lost or back

@@ -32,6 +32,7 @@ from dronefleet.ground.planner import (
 )
 from dronefleet.ground.planner.ends import GO_HOME
 from dronefleet.ground.planner.fleet_view import FleetView
+from dronefleet.ground.planner.latest import LatestTelemetry
 from dronefleet.ground.planner.mission_log import build_log
 from dronefleet.ground.planner.models import (
     Leg,
@@ -101,7 +102,7 @@ class MissionPlanner:
         self._dirty: set[str] = set()
         self._unwritten: set[str] = set()  # missions a write failed for (a full disk)
         self._flusher: asyncio.Task[None] | None = None
-        self.latest: dict[str, dict[str, Any]] = {}  # drone id -> latest telemetry fields
+        self.latest = LatestTelemetry()  # drone id -> latest telemetry fields
         self.check_delays: dict[str, float] = {}  # early replacement's own delay
         self.start_delays = StartDelays()  # legs' send-to-start delays (start_delay.py)
         self.check_again: set[str] = set()  # a step reported while its early check ran
@@ -358,7 +359,7 @@ class MissionPlanner:
         """A drone's telemetry, as the ground's Fleet Inbox read it (ground/inbox.py)."""
         fields = msg.fields
         if "battery_pct" in fields and "lat" in fields:
-            self.latest[msg.drone_id] = {**fields, "vehicle_time_s": msg.vehicle_time_s}
+            self.latest.keep(msg.drone_id, msg.vehicle_time_s, fields)
         record, _leg = self.mission_of(msg.drone_id, None)
         if record is None:
             return

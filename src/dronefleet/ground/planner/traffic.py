@@ -11,7 +11,7 @@ last place, its way to its goal and its drift are kept clear, as well as the res
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from dronefleet.ground.planner import orphans
@@ -42,7 +42,7 @@ def traffic(
     fleet: Iterable[DroneView],
     exclude: set[str],
     *,
-    latest: dict[str, dict[str, Any]] | None = None,
+    latest: Mapping[str, dict[str, Any]] | None = None,
 ) -> list[Share]:
     """Every drone not in ``exclude`` that is or will be in the air, as a share flown as is, and
     every orphan (a drone in the air not heard: :func:`orphan_of`, from its ``latest``
