@@ -8,7 +8,7 @@ first ring's corners are moved out towards the outline's (:func:`pointed`); :mod
 what is left as it does for swaths. Rings are flown nearest first, each from its corner nearest
 the drone, all the way round; transits between them stay inside the area (:mod:`.router`). The
 pipeline flies them only where they are clearly quicker than the swaths
-(:meth:`~.pipeline.CoveragePipeline._or_contour`): not on a star, whose tips cost a ring twice
+(:func:`~.outlines.or_contour`): not on a star, whose tips cost a ring twice
 what they cost swaths.
 
 Shapely's negative buffer does the offsetting (GEOS, already the planner's geometry engine):

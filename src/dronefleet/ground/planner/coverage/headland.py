@@ -1,8 +1,8 @@
 """A headland route: the outline flown once, half a spacing inside, and swaths over the rest.
 
-The third pattern the pipeline weighs on small areas (:meth:`~.pipeline.CoveragePipeline.
-_or_headland`), between swaths all the way (:mod:`.swaths`) and rings all the way
-(:mod:`.contour`). Sharp tips are where swaths lose: a five-pointed star's 36° tips cost its
+The third pattern the pipeline weighs on small areas (:func:`~.outlines.or_headland`),
+between swaths all the way (:mod:`.swaths`) and rings all the way (:mod:`.contour`).
+Sharp tips are where swaths lose: a five-pointed star's 36° tips cost its
 swaths 68 m of detours and spurs (444 -> 513 m at 100 %, bench/coverage_vs_f2c.py), since a
 swath crossing a tip ends short of its point whichever way it runs. Flown along its sides, a tip
 costs what it covers: each side half a spacing in, the corner moved out to within half a spacing

@@ -45,7 +45,6 @@ from shapely.geometry import LineString, Point, Polygon
 
 from dronefleet.ground.planner.coverage.angle import AngleChooser
 from dronefleet.ground.planner.coverage.candidate import (
-    SAME_TIME,
     Candidate,
     Over,
     beaten,
@@ -53,12 +52,16 @@ from dronefleet.ground.planner.coverage.candidate import (
     quicker_live,
     route_length,
 )
-from dronefleet.ground.planner.coverage.contour import contour_points, contour_route
 from dronefleet.ground.planner.coverage.cost import RouteTime
 from dronefleet.ground.planner.coverage.decompose import BoustrophedonDecomposer
 from dronefleet.ground.planner.coverage.ends import trimmed
 from dronefleet.ground.planner.coverage.gaps import SLIVER_SPACINGS, GapFiller
-from dronefleet.ground.planner.coverage.headland import headland_options, least_m
+from dronefleet.ground.planner.coverage.outlines import (
+    DETOUR_SQUARES,
+    or_contour,
+    or_headland,
+    vertices,
+)
 from dronefleet.ground.planner.coverage.path import PathBuilder, RoutePoint, route_xy
 from dronefleet.ground.planner.coverage.plan import PICTURE_S, CoveragePlan
 from dronefleet.ground.planner.coverage.project import LocalProjection
@@ -86,15 +89,6 @@ CLOSED = 2
 #: Most swaths a route may have for its gaps to be closed by strokes the solver weaves in (a
 #: second solve and path); past that a gap costs little beside the route, and spurs do.
 STROKES_UP_TO = 60
-#: The sweep angle a contour route is given: 90° is the local plane itself (no rotation).
-CONTOUR_ANGLE = 90.0
-#: Outlines with more vertices than this are not offered rings: a traced 240-vertex outline's
-#: rings and their gaps took 115 ms more to plan and never won.
-CONTOUR_VERTICES = 100
-#: Inner swath angles a headland route is tried at (:meth:`CoveragePipeline._or_headland`).
-HEADLAND_ANGLES = 3
-#: Largest area (in spacing-squares, see SHORTLIST) whose gaps are closed by detours first.
-DETOUR_SQUARES = 260
 
 
 @dataclass(frozen=True)
@@ -145,9 +139,9 @@ class CoveragePipeline:
         else:
             best = self._search(spec, found, filler)
         if self.contours and spec.angle_deg is None and spec.grid == Grid.INSET:
-            best = self._or_contour(spec, area, first, best, filler)
+            best = or_contour(self, spec, area, first, best, filler)
         if self.headlands and spec.angle_deg is None and spec.grid == Grid.INSET:
-            best = self._or_headland(spec, area, first, best, filler)
+            best = or_headland(self, spec, area, first, best, filler)
         if filler is not None:  # after the choice: pulling a route's ends in only shortens it
             ends = replace(filler, builder=best.builder)
             best.points, best.left = trimmed(best.points, best.sweep_area, best.left, ends)
@@ -249,92 +243,6 @@ class CoveragePipeline:
             closed.append(c)
         return chosen(closed)
 
-    def _or_contour(
-        self,
-        spec: AreaSpec,
-        area: Polygon,
-        first: tuple[float, float],
-        best: Candidate,
-        filler: GapFiller | None,
-    ) -> Candidate:
-        """The contour route (:mod:`.contour`) where it is clearly quicker than ``best``, the
-        swaths' route: by more than :data:`~.candidate.SAME_TIME`, the closed form's margin.
-        Small areas only (:data:`DETOUR_SQUARES`): a ring's gaps are closed by detours."""
-        builder = best.builder
-        if area.area / builder.spacing_m**2 > DETOUR_SQUARES or _vertices(area) > CONTOUR_VERTICES:
-            return best
-        routed = contour_route(area, builder.spacing_m, first)
-        if routed is None:
-            return best
-        ring = Candidate(CONTOUR_ANGLE, area, [], builder, first, routed, hold_s=best.hold_s)
-        ring.pattern = "rings"
-        ring.points = contour_points(builder, routed)
-        self._cost(spec, best)
-        beat = best.time_s * (1.0 - SAME_TIME)
-
-        def over(points: list[RoutePoint]) -> bool:
-            return self.timing.of(points, ring.hold_s) >= beat
-
-        if over(ring.points):
-            return best
-        if filler is not None:
-            self.close_gaps(ring, filler, over)
-        self._cost(spec, ring)
-        return ring if ring.time_s < beat else best
-
-    def _or_headland(
-        self,
-        spec: AreaSpec,
-        area: Polygon,
-        first: tuple[float, float],
-        best: Candidate,
-        filler: GapFiller | None,
-    ) -> Candidate:
-        """The headland route (:mod:`.headland`) where it is :func:`chosen` over ``best``: as
-        quick within :data:`~.candidate.SAME_TIME` and shorter, or quicker by more. Small areas
-        only, as rings (:data:`DETOUR_SQUARES`, :data:`CONTOUR_VERTICES`).
-
-        Its inner swaths are tried at :data:`HEADLAND_ANGLES` angles, ranked as the swaths'
-        angles are (:meth:`_guess`: a spur to each gap) and closed in that order while they can
-        still be chosen (:func:`beaten`, closing gaps only adds to a route). An option that can no
-        longer be chosen by what any route through its passes is at least (:func:`least_m`), or
-        by its route before its gaps, is dropped before it is routed or guessed."""
-        builder = best.builder
-        if area.area / builder.spacing_m**2 > DETOUR_SQUARES or _vertices(area) > CONTOUR_VERTICES:
-            return best
-        swaths = SwathGenerator(builder.spacing_m)
-        self._cost(spec, best)
-        done = [(best.time_s, best.length_m)]
-        found: list[Candidate] = []
-        base: Routed | None = None  # the options share their sides: their transits are reused
-        for passes in headland_options(area, swaths, self.angles, HEADLAND_ANGLES):
-            least = least_m(passes) if passes else math.inf
-            if beaten(least / self.timing.speed_mps, least, done):
-                continue
-            routed = base = self.orderer.reorder(list(passes), [], first, area, base)
-            head = Candidate(CONTOUR_ANGLE, area, [], builder, first, routed, hold_s=best.hold_s)
-            head.pattern = "headland"  # the outline flown once, then swaths inside
-            head.points = contour_points(builder, routed)
-            self._cost(spec, head)
-            if beaten(head.time_s, head.length_m, done):
-                continue
-            head.guess = head.time_s
-            if filler is not None:
-                self._guess(head, filler)
-            found.append(head)
-        closed = [best]
-        for head in sorted(found, key=lambda c: c.guess):
-            done = [(c.time_s, c.length_m) for c in closed]
-            if beaten(head.time_s, head.length_m, done):
-                continue
-            if filler is not None:
-                self.close_gaps(head, filler, self._beaten(head, done))
-                self._cost(spec, head)
-                if _uncovered(head) > max(filler.leave_m2, _uncovered(best)):
-                    continue  # gaps the filler's rounds could not close: never less covered
-            closed.append(head)
-        return chosen(closed)
-
     def filler(self, spec: AreaSpec, area: Polygon, spacing: float) -> GapFiller | None:
         """The gap filler for ``spec``'s coverage target (None when gaps are left open)."""
         if not self.fill_gaps:
@@ -421,20 +329,10 @@ def shortlist_size(area: Polygon, spacing_m: float) -> int:
     """How many angles to plan to the end for an area (see :data:`SHORTLIST`): one for a traced
     outline (over :data:`TRACED_VERTICES`), as before issue 30 — closing the gaps of a 2000-vertex
     comb or gear at a second angle took seconds, past issue 11's budget."""
-    if _vertices(area) > TRACED_VERTICES:
+    if vertices(area) > TRACED_VERTICES:
         return 1
     squares = area.area / (spacing_m * spacing_m)
     return next((size for most, size in SHORTLIST if squares <= most), 1)
-
-
-def _vertices(area: Polygon) -> int:
-    """The corners of an area's outline and holes (each ring's closing one counted)."""
-    return len(area.exterior.coords) + sum(len(r.coords) for r in area.interiors)
-
-
-def _uncovered(c: Candidate) -> float:
-    """What ``c`` leaves uncovered (m²)."""
-    return float(sum(g.area for g in c.left))
 
 
 def _hold_s(spec: AreaSpec) -> float:
