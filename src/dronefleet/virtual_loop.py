@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import heapq
+import itertools
 import math
 import selectors
 import time
@@ -51,17 +53,21 @@ class _PacedSelector(selectors.BaseSelector):
 
     # -- the part that makes time virtual -------------------------------------------------------
     def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
+        loop = self._loop
         events = self._real.select(0)
         if events or timeout == 0:
-            return events
-        loop = self._loop
-        if loop.busy_jobs:
+            pass
+        elif loop.busy_jobs:
             # A thread is working for the loop: its result takes zero virtual time.
             wait = _BUSY_POLL_WALL_S if timeout is None else min(timeout, _BUSY_POLL_WALL_S)
-            return self._real.select(wait)
-        if timeout is None:
-            return self._real.select(None)  # no timer at all: only outside I/O can wake us
-        return loop.advance_paced(timeout, self._real)
+            events = self._real.select(_sooner(wait, loop.wall_wait_s()))
+        elif timeout is None:
+            # No timer at all: only outside I/O (or a wall timer) can wake us.
+            events = self._real.select(loop.wall_wait_s())
+        else:
+            events = loop.advance_paced(timeout, self._real)
+        loop.run_wall_timers()
+        return events
 
     # -- delegation -------------------------------------------------------------------------------
     def register(self, fileobj: Any, events: int, data: Any = None) -> selectors.SelectorKey:
@@ -95,6 +101,8 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         self._anchor_virtual_s = self._virtual_s
         self._anchor_wall_s = time.monotonic()
         self.busy_jobs = 0
+        self._wall_timers: list[tuple[float, int, WallTimer]] = []
+        self._wall_order = itertools.count()
         super().__init__(_PacedSelector(self))
 
     # -- time -------------------------------------------------------------------------------------
@@ -135,8 +143,10 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         if now_wall - due_wall > MAX_LAG_WALL_S:
             self._rebase()  # hopelessly behind (a stall): pace from here, no burst
             due_wall = now_wall
-        events = real.select(due_wall - now_wall) if due_wall > now_wall else []
-        if events:
+        wall = self.wall_wait_s()
+        wait = due_wall - now_wall if wall is None else min(due_wall - now_wall, wall)
+        events = real.select(wait) if wait > 0 else []
+        if events or now_wall + wait < due_wall:  # woken early: time is where the wall says
             paced = self._anchor_virtual_s + (time.monotonic() - self._anchor_wall_s) * (
                 self._speedup
             )
@@ -144,6 +154,34 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
         else:
             self._virtual_s = target
         return events
+
+    # -- wall timers: for what keeps wall time outside the process ------------------------------
+    def call_wall_later(self, delay_s: float, callback: Callable[[], object]) -> WallTimer:
+        """``callback()`` after ``delay_s`` **wall** seconds, whatever virtual time does: for a
+        peer that keeps wall time (a broker closes a link silent for 1.5 keepalives, and virtual
+        time may stand still longer than that while a thread works for the loop on a busy
+        host). Virtual timers would never fire in such a spell."""
+        timer = WallTimer(callback)
+        heapq.heappush(
+            self._wall_timers, (time.monotonic() + delay_s, next(self._wall_order), timer)
+        )
+        return timer
+
+    def wall_wait_s(self) -> float | None:
+        """Wall seconds until the next wall timer is due (None: there is none)."""
+        while self._wall_timers and self._wall_timers[0][2].cancelled:
+            heapq.heappop(self._wall_timers)
+        if not self._wall_timers:
+            return None
+        return max(0.0, self._wall_timers[0][0] - time.monotonic())
+
+    def run_wall_timers(self) -> None:
+        """Hand the wall timers that are due to the loop (run in this turn, as ready work)."""
+        now = time.monotonic()
+        while self._wall_timers and self._wall_timers[0][0] <= now:
+            _, _, timer = heapq.heappop(self._wall_timers)
+            if not timer.cancelled:
+                self.call_soon(timer.callback)
 
     # -- executor jobs hold time still ----------------------------------------------------------
     def run_in_executor(  # type: ignore[override]  # same call, typeshed's generic signature
@@ -156,6 +194,44 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
     def _job_done(self, _: asyncio.Future[Any]) -> None:
         self.busy_jobs -= 1
+
+
+class WallTimer:
+    """A wall timer's handle: ``cancel()`` it."""
+
+    __slots__ = ("callback", "cancelled")
+
+    def __init__(self, callback: Callable[[], object]) -> None:
+        self.callback, self.cancelled = callback, False
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
+def every_wall_s(interval_s: float, callback: Callable[[], object]) -> WallTimer | None:
+    """``callback()`` every ``interval_s`` wall seconds on a :class:`VirtualTimeLoop` (see
+    :meth:`VirtualTimeLoop.call_wall_later`) until the handle is cancelled; on any other loop
+    None: its timers already keep wall time."""
+    loop = asyncio.get_running_loop()
+    if not isinstance(loop, VirtualTimeLoop):
+        return None
+    handle = WallTimer(callback)
+
+    def tick() -> None:
+        if handle.cancelled:
+            return
+        callback()
+        loop.call_wall_later(interval_s, tick)
+
+    loop.call_wall_later(interval_s, tick)
+    return handle
+
+
+def _sooner(a: float | None, b: float | None) -> float | None:
+    """The shorter of two waits (None: forever)."""
+    if a is None:
+        return b
+    return a if b is None else min(a, b)
 
 
 async def held(awaitable: Awaitable[T]) -> T:

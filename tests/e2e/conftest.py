@@ -173,11 +173,17 @@ class Console:
 
     def __init__(self, page) -> None:
         self.errors: list[str] = []
-        page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
+        #: Each error with where it came from: a failed load names its resource only there.
+        self.located: list[str] = []
+        page.on("console", lambda m: m.type == "error" and self._said(m))
         page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
 
+    def _said(self, message) -> None:
+        self.errors.append(message.text)
+        self.located.append(f"{message.text} ({(message.location or {}).get('url', '?')})")
+
     def assert_clean(self) -> None:
-        assert not self.errors, f"console errors: {self.errors}"
+        assert not self.errors, f"console errors: {self.errors}; where: {self.located}"
 
 
 @pytest.fixture

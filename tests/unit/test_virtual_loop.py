@@ -7,6 +7,7 @@ virtual deadline; a finite speed-up never lets virtual time run ahead of the wal
 from __future__ import annotations
 
 import asyncio
+import itertools
 import math
 import time
 
@@ -135,3 +136,38 @@ def test_speedup_values():
     for bad in ("0", "-1", "nan", "fast"):
         with pytest.raises(ValueError, match="--speedup"):
             parse_speedup(bad)
+
+
+def test_a_wall_timer_fires_while_virtual_time_stands_still():
+    """A thread works for the loop for 0.6 wall s: virtual time stands still, virtual timers
+    wait, and the wall timers (the broker links' keepalive) fire on the wall's schedule."""
+
+    async def main() -> tuple[list[float], float, bool]:
+        loop = asyncio.get_running_loop()
+        fired: list[float] = []
+        wall0 = time.monotonic()
+        ticks = virtual_loop.every_wall_s(0.1, lambda: fired.append(time.monotonic() - wall0))
+        gone = loop.call_wall_later(0.05, lambda: fired.append(-1.0))
+        gone.cancel()
+        t0 = loop.time()
+        await virtual_loop.held(asyncio.to_thread(time.sleep, 0.6))
+        still = loop.time() - t0
+        assert ticks is not None
+        ticks.cancel()
+        count = len(fired)
+        await asyncio.sleep(0.3)  # cancelled: no more
+        return fired, still, len(fired) == count
+
+    fired, still, stopped = virtual_loop.run(main(), speedup=5.0)
+    assert still < 0.05, still
+    assert -1.0 not in fired  # the cancelled one never ran
+    assert 4 <= len(fired) <= 7, fired
+    assert all(b > a for a, b in itertools.pairwise(fired))
+    assert stopped
+
+
+def test_wall_timers_are_the_loops_own_timers_on_an_ordinary_loop():
+    async def main() -> object:
+        return virtual_loop.every_wall_s(1.0, lambda: None)
+
+    assert asyncio.run(main()) is None

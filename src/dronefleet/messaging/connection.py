@@ -26,6 +26,7 @@ from dronefleet.messaging.mqtt_queue import dispatching_queue
 from dronefleet.messaging.node_turns import STABLE_LINK_S, NodeTurns
 from dronefleet.messaging.read_buffer import read_buffered
 from dronefleet.messaging.url import BrokerNode, BrokerUrl
+from dronefleet.virtual_loop import every_wall_s
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -151,20 +152,28 @@ class Connection:
                 closed_before_connack_fails(connection)
                 read_buffered(connection)  # many packets per read (messaging/read_buffer.py)
                 async with linked(connection, turns.connack_s()) as client:
-                    self._client = client
-                    self._link_lost = asyncio.Event()
-                    self.node = node
-                    turns.up()
-                    _no_delay(client)
-                    await self._link_up(client)
-                    self.connections += 1
-                    self._connected.set()
-                    log.log(
-                        logging.INFO if self.connections > 1 else logging.DEBUG,
-                        "%s connected to %s (node %s)", self.client_id, self.url, node,
-                    )  # fmt: skip
-                    async for _ in client.messages:  # never yields (see mqtt_queue.py): it
-                        pass  # ends, raising MqttError, when the link is lost
+                    # aiomqtt sends the keepalive pings from a task timed on the loop's clock,
+                    # which stands still in a simulation while a thread works for the loop; the
+                    # broker keeps wall time and closed every idle link of a busy demo.
+                    pings = every_wall_s(1.0, connection._client.loop_misc)
+                    try:
+                        self._client = client
+                        self._link_lost = asyncio.Event()
+                        self.node = node
+                        turns.up()
+                        _no_delay(client)
+                        await self._link_up(client)
+                        self.connections += 1
+                        self._connected.set()
+                        log.log(
+                            logging.INFO if self.connections > 1 else logging.DEBUG,
+                            "%s connected to %s (node %s)", self.client_id, self.url, node,
+                        )  # fmt: skip
+                        async for _ in client.messages:  # never yields (mqtt_queue.py): it
+                            pass  # ends, raising MqttError, when the link is lost
+                    finally:
+                        if pings is not None:
+                            pings.cancel()
             except aiomqtt.MqttError as exc:
                 if not self._stopping:
                     log.info(

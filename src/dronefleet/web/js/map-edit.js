@@ -42,8 +42,15 @@ const asText = (latlngs) => latlngs.map((p) => `${p.lat.toFixed(7)}, ${p.lng.toF
  * handles: one may be under the mouse, being dragged. */
 function editableCorners(layer, text) {
   let handles = "";
+  // While a corner is dragged, the layer already has it where the mouse is and the field does
+  // not yet: a "change" then (the field losing the focus to the press that began the drag, seen
+  // late on a busy host) made new handles and the drag was lost. Its end writes the field.
+  let dragging = false;
+  layer.on("pm:markerdragstart", () => { dragging = true; });
+  layer.on("pm:markerdragend", () => { dragging = false; });
   layer.on("pm:edit", () => setField(text, asText(ring(layer))));
   return () => {
+    if (dragging) return false;
     const now = ring(layer).length >= 3 ? asText(ring(layer)) : "";
     if (now === handles) return false;
     handles = now;
