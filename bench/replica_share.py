@@ -20,7 +20,8 @@ one real replica exactly that, and nothing it would not get:
 
 After ``--warmup`` s, for ``--seconds``: the replica's CPU (every thread) per message the fleet
 sends and the drones at 5 Hz one core carries at that cost; what it stored of its own drones'
-telemetry; its live stream's lag; drones it holds lost. No assertions.
+telemetry; its live stream's lag; drones it holds lost. No assertions. ``--over mqtt``: the
+replica reads the fleet's stream over MQTT, not NATS's own protocol (``--fleet-over-nats``).
 
     .venv/bin/python bench/replica_share.py [--drones 10000] [--hosts 4] [--seconds 30]
 """
@@ -126,8 +127,9 @@ async def run(args: argparse.Namespace) -> None:
                 await Membership(state, name=f"stand-in-{i}", on_change=lambda _m: None).start()
                 for i in range(args.hosts - 1)
             ]
+            over = ["--fleet-over-nats", broker.nats_url] if args.over == "nats" else []
             proc, url = await start_replica(
-                broker, password, state_url, folder, "replica", token, ["--partition-fleet"]
+                broker, password, state_url, folder, "replica", token, ["--partition-fleet", *over]
             )
             try:
                 await measure(args, spawn, broker, password, ids, secret, stand_ins,
@@ -237,6 +239,12 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--warmup", type=float, default=10.0)
     parser.add_argument("--postgres", default=SHARED, help="a server to make the state on")
+    parser.add_argument(
+        "--over",
+        choices=("nats", "mqtt"),
+        default="nats",
+        help="how the replica reads the fleet's stream: --fleet-over-nats (default), or MQTT",
+    )
     args = parser.parse_args()
     if args.hosts < 1 or args.drones < 1:
         parser.error("--hosts and --drones are at least 1")

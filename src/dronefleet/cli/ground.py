@@ -35,7 +35,8 @@ def state_spec(text: str) -> str | Path:
 
 
 def nats_address(text: str) -> str:
-    """``--share-ingestion``: ``nats://HOST:PORT[,HOST:PORT...]`` (checked, passed on as given)."""
+    """``--share-ingestion``, ``--fleet-over-nats``: ``nats://HOST:PORT[,HOST:PORT...]``
+    (checked, passed on as given)."""
     from dronefleet.errors import InvalidInput
     from dronefleet.ground.telemetry.shared_ingest import nats_servers
 
@@ -151,6 +152,16 @@ def register(sub: argparse._SubParsersAction) -> None:
         "telemetry and sees the others' from their replicas' pictures (docs/deployment.md); "
         "refused with an SQLite state or with --share-ingestion",
     )
+    g.add_argument(
+        "--fleet-over-nats",
+        type=nats_address,
+        metavar="NATS_URL",
+        help="read the fleet's telemetry and heartbeats at NATS_URL (nats://HOST:4222[,...]: "
+        "the client port of the NATS server or cluster whose MQTT listener --broker is, logged "
+        "in as the --broker user) over NATS's own protocol, at about a third of MQTT's CPU a "
+        "message; a broker that is not NATS is refused (docs/deployment.md); default: over "
+        "--broker",
+    )
     add_trusted_proxy(g)
     g.set_defaults(func=run_ground)
 
@@ -262,6 +273,7 @@ async def _ground(args: argparse.Namespace) -> int:
         trusted_proxies=args.trusted_proxy,
         share_ingestion=args.share_ingestion,
         partition_fleet=args.partition_fleet,
+        fleet_over_nats=args.fleet_over_nats,
     )
     try:
         await services.start()

@@ -28,7 +28,7 @@ from typing import Any
 from dronefleet.ground.alarm_log import AlarmLog
 from dronefleet.ground.fleet import MIN_LOST_AFTER_S
 from dronefleet.ground.identifier import DroneIdentifier
-from dronefleet.ground.inbox import FleetInbox
+from dronefleet.ground.inbox import OVER_NATS, FleetInbox
 from dronefleet.ground.lease import Lease
 from dronefleet.ground.manager.app import create_app
 from dronefleet.ground.manager.auth import Role, TokenBook
@@ -52,6 +52,7 @@ from dronefleet.ground.state_pg import is_postgres_url, state_store
 from dronefleet.ground.telemetry.connector import TelemetryConnector
 from dronefleet.ground.telemetry.shared_ingest import SharedIngest, check_shareable
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
+from dronefleet.messaging.nats_link import check_usable
 from dronefleet.messaging.url import BrokerUrl
 
 log = logging.getLogger(__name__)
@@ -84,7 +85,11 @@ class GroundServices:
         trusted_proxies: Sequence[str] = (),
         share_ingestion: str | None = None,
         partition_fleet: bool = False,
+        fleet_over_nats: str | None = None,
     ) -> None:
+        #: NATS's client address: the Fleet Inbox reads the stream there, not over MQTT
+        #: (messaging/nats_link.py); None: over the broker's MQTT.
+        self.fleet_over_nats = fleet_over_nats
         #: Share the fleet by drone among the replicas (ground/partition.py): each takes only
         #: its own drones' telemetry from the broker, the others' from their pictures.
         self.partition_fleet = partition_fleet
@@ -158,6 +163,8 @@ class GroundServices:
     async def _start(self) -> None:
         if self.share_ingestion is not None:
             check_shareable(self.broker_url)  # refused before anything starts
+        if self.fleet_over_nats is not None:
+            check_usable(self.broker_url, OVER_NATS)
         if self.partition_fleet and self.share_ingestion is not None:
             raise PartitionNotApplicable(
                 "--share-ingestion does not apply with --partition-fleet: each replica already "
@@ -192,7 +199,10 @@ class GroundServices:
         # The fleet's stream, read once for every service (issue 27); subscribed before any
         # service starts, so the Identifier counts silence from a subscription in place.
         inbox = self.inbox = FleetInbox(
-            url, client_id=f"ground-inbox-{suffix}", partitioned=self.partition_fleet
+            url,
+            client_id=f"ground-inbox-{suffix}",
+            partitioned=self.partition_fleet,
+            over_nats=self.fleet_over_nats,
         )
         await inbox.start()
         self._started.append(inbox)

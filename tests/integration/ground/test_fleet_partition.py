@@ -1,7 +1,8 @@
 """Ground replicas sharing the fleet by drone (issue 27: ``--partition-fleet``, ground/partition).
 
-Real parts: the test's own Mosquitto, the machine's PostgreSQL, two or three whole
-``GroundServices`` in this process. Twelve fake drones send heartbeats and numbered telemetry.
+Real parts: the test's own Mosquitto (or the embedded NATS, the replicas reading the fleet's
+stream over NATS's own protocol: ``--fleet-over-nats``), the machine's PostgreSQL, two or three
+whole ``GroundServices`` in this process. Twelve fake drones send heartbeats and numbered telemetry.
 Each replica must take (store) only its own drones' telemetry, every message stored once, while
 seeing the whole fleet through the others' pictures; a pair of drones too close whose owners
 differ is still caught; a replica that stops, or that stops renewing (hung or dead), has its
@@ -21,8 +22,12 @@ import pytest
 from dronefleet.ground.members import RENEW_S, TTL_S
 from dronefleet.ground.partition import PartitionNotApplicable, owner
 from dronefleet.ground.services import GroundServices
+from dronefleet.messaging.broker_users import BrokerRole, BrokerUsers
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.common import Position
+from dronefleet.messaging.nats_broker import NatsBroker
+from dronefleet.messaging.nats_link import NatsNotUsable
+from dronefleet.messaging.ports import free_port
 from dronefleet.messaging.status import BatteryStatus, FlightState, Heartbeat, Telemetry
 from support.postgres import fresh_database
 
@@ -32,7 +37,9 @@ DRONES = [f"QUAD_{i}" for i in range(1, 13)]
 HOME = (52.0, 4.0)  # not the seed's Braga: another home
 
 
-def replica(broker: str, state: str, folder: Path, name: str) -> GroundServices:
+def replica(
+    broker: object, state: str, folder: Path, name: str, over_nats: str | None = None
+) -> GroundServices:
     """A replica named ``ground-test-<name>``: the fleet's split among them is the same each run."""
     ground = GroundServices(
         broker,
@@ -44,6 +51,7 @@ def replica(broker: str, state: str, folder: Path, name: str) -> GroundServices:
         planning_processes=0,
         serve_http=False,
         partition_fleet=True,
+        fleet_over_nats=over_nats,
     )
     ground.replica_id = f"ground-test-{name}"
     return ground
@@ -131,6 +139,22 @@ async def settled(grounds: list[GroundServices], sent: set[tuple[str, int]]) -> 
         await asyncio.sleep(0.2)
 
 
+@pytest.fixture(params=["mqtt", "nats"])
+async def link(request, broker):
+    """(the replicas' broker URL, the fake fleet's, the NATS address they read the stream at):
+    Mosquitto over MQTT, or the embedded NATS with ``--fleet-over-nats`` (the fleet, anonymous
+    on MQTT there, as the test's Mosquitto lets it be)."""
+    if request.param == "mqtt":
+        yield broker, broker, None
+        return
+    nats = await NatsBroker(users=BrokerUsers(), anonymous=True).start()
+    try:
+        ground = nats.url_for("ground", BrokerRole.GROUND)
+        yield ground, f"mqtt://{nats.host}:{nats.port}", nats.nats_url
+    finally:
+        await nats.stop()
+
+
 @pytest.fixture
 def state():
     with fresh_database() as url:
@@ -138,15 +162,16 @@ def state():
 
 
 async def test_replicas_split_the_fleet_store_each_message_once_and_see_it_all(
-    broker, state, tmp_path
+    link, state, tmp_path
 ):
-    a = replica(broker, state, tmp_path, "a")
-    b = replica(broker, state, tmp_path, "b")
+    broker, fleet_url, over_nats = link
+    a = replica(broker, state, tmp_path, "a", over_nats)
+    b = replica(broker, state, tmp_path, "b", over_nats)
     # Two drones 2 m apart whose owners differ: neither replica takes both from the broker.
     members = tuple(sorted((a.replica_id, b.replica_id)))
     near = DRONES[0]
     other = next(d for d in DRONES[1:] if owner(d, members) != owner(near, members))
-    client = await BrokerClient(broker, "fake-fleet").start()
+    client = await BrokerClient(fleet_url, "fake-fleet").start()
     fleet = Fleet(client, close=(near, other))
     await a.start()
     await b.start()
@@ -181,7 +206,7 @@ async def test_replicas_split_the_fleet_store_each_message_once_and_see_it_all(
             own, moved = len(g.partition.own), g.partition.moves
             assert health == {"replicas": 2, "drones": 12, "own": own, "moved": moved}
         # A replica joins: it takes a share, from both, at their next renewal.
-        c = await replica(broker, state, tmp_path, "c").start()
+        c = await replica(broker, state, tmp_path, "c", over_nats).start()
         try:
             await fleet.heartbeats()  # it knows a drone from its next heartbeat (every 5 s)
             await until(lambda: split(a, b, c), 5, "the fleet split among three")
@@ -268,3 +293,22 @@ async def test_partitioning_is_refused_where_it_does_not_apply(broker, tmp_path)
     )
     with pytest.raises(PartitionNotApplicable, match="--share-ingestion does not apply"):
         await both.start()
+
+
+async def test_reading_the_fleet_over_nats_is_refused_where_it_does_not_apply(broker, tmp_path):
+    def ground(url: str, name: str) -> GroundServices:
+        return GroundServices(
+            url,
+            store_url=f"sqlite:///{tmp_path}/{name}.db",
+            state_path=tmp_path / f"{name}-state.db",
+            http_port=0,
+            serve_http=False,
+            fleet_over_nats=f"nats://127.0.0.1:{free_port()}",
+        )
+
+    with pytest.raises(NatsNotUsable, match="in-process bus"):
+        await ground("local://ground:pw@bus-nats-refused", "local").start()
+    assert not (tmp_path / "local-state.db").exists()  # refused before anything was made
+    # A Mosquitto has no NATS port: nothing answers NATS there, and the ground says so.
+    with pytest.raises(NatsNotUsable, match=r"no NATS server at .* let the ground"):
+        await ground(f"mqtt://ground:secret@{broker.host}:{broker.port}", "mosquitto").start()

@@ -82,10 +82,10 @@ def test_the_ground_refuses_the_option_on_an_in_process_bus_before_starting(tmp_
 async def test_a_refusal_by_the_server_is_the_reason_given_even_if_a_reset_came_after():
     # NATS closes the socket on a wrong password: the next try may only see the reset (CI, stop 33).
     ingest = SharedIngest("nats://127.0.0.1:4222", GROUND, take=print, name="x")
-    await ingest._error(Exception("nats: 'Authorization Violation'"))
-    await ingest._error(ConnectionResetError(104, "Connection reset by peer"))
-    assert "Authorization" in str(ingest._last_error)
+    await ingest.link._error(Exception("nats: 'Authorization Violation'"))
+    await ingest.link._error(ConnectionResetError(104, "Connection reset by peer"))
+    assert "Authorization" in str(ingest.link._last_error)
     fresh = SharedIngest("nats://127.0.0.1:4222", GROUND, take=print, name="y")
-    await fresh._error(TimeoutError())
-    await fresh._error(ConnectionResetError(104, "Connection reset by peer"))
-    assert isinstance(fresh._last_error, ConnectionResetError)
+    await fresh.link._error(TimeoutError())
+    await fresh.link._error(ConnectionResetError(104, "Connection reset by peer"))
+    assert isinstance(fresh.link._last_error, ConnectionResetError)
