@@ -177,6 +177,8 @@ class VirtualTimeLoop(asyncio.SelectorEventLoop):
 
     def run_wall_timers(self) -> None:
         """Hand the wall timers that are due to the loop (run in this turn, as ready work)."""
+        if not self._wall_timers:
+            return  # every turn of the loop asks: no clock read without a timer
         now = time.monotonic()
         while self._wall_timers and self._wall_timers[0][0] <= now:
             _, _, timer = heapq.heappop(self._wall_timers)

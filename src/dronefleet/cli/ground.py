@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from dronefleet.cli.args import (
@@ -34,17 +35,21 @@ def state_spec(text: str) -> str | Path:
     return text if text.startswith(("postgresql://", "postgres://")) else Path(text)
 
 
-def nats_address(text: str) -> str:
-    """``--share-ingestion``, ``--fleet-over-nats``: ``nats://HOST:PORT[,HOST:PORT...]``
-    (checked, passed on as given)."""
-    from dronefleet.errors import InvalidInput
-    from dronefleet.ground.telemetry.shared_ingest import nats_servers
+def nats_address(option: str) -> Callable[[str], str]:
+    """``option``'s type (``--share-ingestion``, ``--fleet-over-nats``):
+    ``nats://HOST:PORT[,HOST:PORT...]``, checked and passed on as given; the reason names it."""
 
-    try:
-        nats_servers(text)
-    except InvalidInput as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-    return text
+    def checked(text: str) -> str:
+        from dronefleet.errors import InvalidInput
+        from dronefleet.messaging.nats_link import nats_servers
+
+        try:
+            nats_servers(text, option)
+        except InvalidInput as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return text
+
+    return checked
 
 
 def _host_port(text: str) -> tuple[str, int]:
@@ -136,7 +141,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     g.add_argument(
         "--share-ingestion",
-        type=nats_address,
+        type=nats_address("--share-ingestion"),
         metavar="NATS_URL",
         help="store only this replica's share of the fleet's telemetry, taken in a NATS queue "
         "group at NATS_URL (nats://HOST:4222[,HOST:PORT...]: the client port of the NATS server "
@@ -154,7 +159,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     g.add_argument(
         "--fleet-over-nats",
-        type=nats_address,
+        type=nats_address("--fleet-over-nats"),
         metavar="NATS_URL",
         help="read the fleet's telemetry and heartbeats at NATS_URL (nats://HOST:4222[,...]: "
         "the client port of the NATS server or cluster whose MQTT listener --broker is, logged "

@@ -56,7 +56,6 @@ from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.nats_link import NatsLink
 from dronefleet.messaging.status import Heartbeat, Telemetry
 from dronefleet.messaging.topics import Channel, Direction, any_drone, topic
-from dronefleet.messaging.url import BrokerUrl
 
 log = logging.getLogger(__name__)
 _throttle = LogThrottle(log)  # one line per kind per 10 s: junk on the broker must not flood it
@@ -142,7 +141,7 @@ class Feed(Generic[M]):
         self.client: BrokerClient | NatsLink = (
             BrokerClient(broker_url, name)
             if over_nats is None
-            else NatsLink(over_nats, _parsed(broker_url), name=name, option=OVER_NATS)
+            else NatsLink(over_nats, broker_url, name=name, option=OVER_NATS)
         )
         self.channel, self.kind = channel, kind
         self.model: type[M] = model
@@ -205,10 +204,6 @@ class Feed(Generic[M]):
         for queue in self._queues:
             await queue.stop()
         self._queues, self._direct = [], []
-
-
-def _parsed(broker_url: Any) -> BrokerUrl:
-    return broker_url if isinstance(broker_url, BrokerUrl) else BrokerUrl.parse(str(broker_url))
 
 
 class FleetInbox:

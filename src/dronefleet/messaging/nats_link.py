@@ -97,7 +97,11 @@ class NatsLink:
     subscribed with :meth:`subscribe` (before or after the start) are handed their messages as
     ``handler(mqtt_topic, payload)``."""
 
-    def __init__(self, nats_url: str, broker_url: BrokerUrl, *, name: str, option: str) -> None:
+    def __init__(
+        self, nats_url: str, broker_url: str | BrokerUrl, *, name: str, option: str
+    ) -> None:
+        if not isinstance(broker_url, BrokerUrl):
+            broker_url = BrokerUrl.parse(broker_url)
         check_usable(broker_url, option)
         self.servers = nats_servers(nats_url, option)
         self.broker_url, self.name, self.option = broker_url, name, option

@@ -46,3 +46,14 @@ async def test_messages_dropped_behind_are_counted_and_a_refusal_stays_the_reaso
     await link._error(Exception("nats: 'Authorization Violation'"))
     await link._error(ConnectionResetError(104, "Connection reset by peer"))
     assert "Authorization" in str(link._last_error)
+
+
+@pytest.mark.parametrize("option", ["--fleet-over-nats", "--share-ingestion"])
+def test_a_wrong_address_on_the_command_line_is_refused_naming_its_own_option(option, capsys):
+    from dronefleet.cli import build_parser
+
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["ground", option, "mqtt://a:1883"])
+    err = capsys.readouterr().err
+    assert f"{option} wants the NATS client address" in err, err
+    assert build_parser().parse_args(["ground", option, "nats://a:4222"]) is not None
