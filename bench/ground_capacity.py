@@ -329,14 +329,6 @@ async def poll_drones(api: httpx.AsyncClient, hz: float, seen: Observed) -> None
         await asyncio.sleep(next_at - loop.time())
 
 
-def rows_written(path: Path) -> int:
-    """Points the store has written so far (a row each, never deleted here: the largest
-    rowid)."""
-    with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
-        sql = "SELECT COALESCE(MAX(rowid), 0) FROM telemetry_points"
-        return int(db.execute(sql).fetchone()[0])
-
-
 def thread_cpu_s(pid: int, tid: int) -> float:
     """CPU seconds of one thread of process ``pid``."""
     with open(f"/proc/{pid}/task/{tid}/stat") as stat:
@@ -351,9 +343,15 @@ def run_queue_s(pid: int) -> float:
 
 
 def stored_points(path: Path) -> int:
-    """Telemetry points (messages) in the SQLite store, a row each."""
+    """Telemetry points (messages) in the SQLite store: the sum of its runs' (a row is one
+    drone's run of points, ground/telemetry/sqlite_store.py); 0 before it is made."""
+    if not path.exists():
+        return 0
     with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
-        return int(db.execute("SELECT COUNT(*) FROM telemetry_points").fetchone()[0])
+        try:
+            return int(db.execute("SELECT COALESCE(SUM(n), 0) FROM telemetry_runs").fetchone()[0])
+        except sqlite3.OperationalError:  # not made yet
+            return 0
 
 
 async def settled_points(path: Path, limit_s: float) -> tuple[int, float]:
@@ -505,7 +503,7 @@ async def window(
 ) -> None:
     """The measuring window: the ground's CPU and the messages sent over it."""
     row.load = (os.getloadavg()[0], 0.0)
-    rows0 = await asyncio.to_thread(rows_written, store)
+    rows0 = await asyncio.to_thread(stored_points, store)
     waited0, loop0 = run_queue_s(ground.pid), thread_cpu_s(ground.pid, ground.pid)
     cpu0, tele0, beats0, skip0 = proc_cpu_s(ground.pid), *counters[:3]
     began = time.perf_counter()
@@ -519,7 +517,7 @@ async def window(
     row.ground_cpu_s = proc_cpu_s(ground.pid) - cpu0
     row.waited_s = run_queue_s(ground.pid) - waited0
     row.loop_cpu_s = thread_cpu_s(ground.pid, ground.pid) - loop0
-    row.stored_in_window = await asyncio.to_thread(rows_written, store) - rows0
+    row.stored_in_window = await asyncio.to_thread(stored_points, store) - rows0
     row.telemetry_sent = counters[TELEMETRY] - tele0
     row.heartbeats_sent = counters[HEARTBEATS] - beats0
     row.skipped = counters[SKIPPED] - skip0

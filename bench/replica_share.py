@@ -18,6 +18,12 @@ one real replica exactly that, and nothing it would not get:
 - each stand-in publishes its drones' latest telemetry every ``SHARE_S`` on its picture topic
   as a replica's ``PictureShare`` does (the same model, topic, QoS and size limit).
 
+**One core for the replica, as a host gives it** (``--pin``, the default on a machine of two or
+more cores): the replica's process (every thread, its worker processes) runs on the first core
+and nothing else does; the broker, the fleet and the stand-ins share the others. Unpinned, the
+replica took what the scheduler left it beside them (0.86-0.98 core on this 2-core machine, the
+machine 185-190 % busy), so whether it kept up said as much about the scheduler as about it.
+
 After ``--warmup`` s, for ``--seconds``: the replica's CPU (every thread) per message the fleet
 sends and the drones at 5 Hz one core carries at that cost; what it stored of its own drones'
 telemetry; its live stream's lag; drones it holds lost. No assertions. ``--over mqtt``: the
@@ -30,7 +36,9 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import multiprocessing
+import os
 import secrets
 import shutil
 import signal
@@ -50,9 +58,9 @@ from dronefleet.messaging.broker_users import BrokerRole, BrokerUsers
 from dronefleet.messaging.client import QOS_STREAM, BrokerClient
 from dronefleet.messaging.nats_broker import NatsBroker
 from dronefleet.messaging.status import Telemetry
-from ground_capacity import ALT_M, TELEMETRY, fleet_process, grid
+from ground_capacity import ALT_M, TELEMETRY, fleet_process, grid, stored_points
 from mqtt_load import TELEMETRY_HZ, proc_cpu_s
-from scale_out import health_partition, lat_rows, start_replica, stream_lag_s
+from scale_out import health_partition, start_replica, stream_lag_s
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
@@ -60,6 +68,7 @@ from support.postgres import SHARED, fresh_database_async
 
 SPACING_M = 200.0  # the fleet's grid, as bench/scale_out.py's
 CORE = 1.0  # CPU seconds per second one host gives its replica
+REPLICA_CORE = {0}  # where it runs with --pin
 
 
 def stand_in_picture(replica: str, drones: list[tuple[str, float, float]]) -> list[FleetPicture]:
@@ -103,6 +112,17 @@ async def share_pictures(
     return sent
 
 
+def pin(pid: int, cpus: set[int]) -> None:
+    """Run process ``pid``, every thread of it and its children's, on ``cpus`` only (threads
+    and processes it makes later inherit it from their maker)."""
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with contextlib.suppress(ProcessLookupError):
+            os.sched_setaffinity(int(task.name), cpus)
+    for child in Path(f"/proc/{pid}/task").glob("*/children"):
+        for child_pid in child.read_text().split():
+            pin(int(child_pid), cpus)
+
+
 async def lost_count(url: str, token: str) -> int:
     async with httpx.AsyncClient(base_url=url, timeout=60) as http:
         fleet = await http.get("/api/v1/drones", headers={"Authorization": f"Bearer {token}"})
@@ -131,6 +151,8 @@ async def run(args: argparse.Namespace) -> None:
             proc, url = await start_replica(
                 broker, password, state_url, folder, "replica", token, ["--partition-fleet", *over]
             )
+            if args.pin:
+                pin(proc.pid, REPLICA_CORE)
             try:
                 await measure(args, spawn, broker, password, ids, secret, stand_ins,
                               proc, folder, url, token, stop, done)  # fmt: skip
@@ -208,12 +230,12 @@ async def measure(
             await asyncio.sleep(0.5)
         await asyncio.sleep(args.warmup)
         store = folder / "replica.db"  # scale_out.start_replica's --store
-        sent0, rows0, cpu0 = counters[TELEMETRY], lat_rows(store), proc_cpu_s(proc.pid)
+        sent0, rows0, cpu0 = counters[TELEMETRY], stored_points(store), proc_cpu_s(proc.pid)
         began = time.monotonic()
         await asyncio.sleep(args.seconds)
         window = time.monotonic() - began
         cpu = proc_cpu_s(proc.pid) - cpu0
-        sent, rows = counters[TELEMETRY] - sent0, lat_rows(store) - rows0
+        sent, rows = counters[TELEMETRY] - sent0, stored_points(store) - rows0
         lag = await stream_lag_s(url, token, own[0])
         lost = await lost_count(url, token)
     finally:
@@ -245,9 +267,25 @@ def main() -> None:
         default="nats",
         help="how the replica reads the fleet's stream: --fleet-over-nats (default), or MQTT",
     )
+    parser.add_argument(
+        "--pin",
+        action=argparse.BooleanOptionalAction,
+        default=len(os.sched_getaffinity(0)) >= 2,
+        help="the replica alone on one core, everything else on the others (default: on with "
+        "two cores or more)",
+    )
     args = parser.parse_args()
     if args.hosts < 1 or args.drones < 1:
         parser.error("--hosts and --drones are at least 1")
+    if args.pin:
+        others = os.sched_getaffinity(0) - REPLICA_CORE
+        if not others or not os.sched_getaffinity(0) >= REPLICA_CORE:
+            parser.error(f"--pin needs core {min(REPLICA_CORE)} and another one to run on")
+        # Before anything starts: the broker, the fleet and the replica inherit it (the
+        # replica is then moved to its own core).
+        os.sched_setaffinity(0, others)
+        print(f"the replica on core {min(REPLICA_CORE)} alone; the broker, the fleet and the "
+              f"stand-ins on {sorted(others)}")  # fmt: skip
     asyncio.run(run(args))
 
 

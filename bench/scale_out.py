@@ -19,7 +19,7 @@ bench/ground_capacity.py.
 With ``--replicas``, the K consumers are whole ``dronefleet ground --share-ingestion``
 processes instead, replicas on one fresh PostgreSQL database (``--postgres``: a server where
 the user may create databases), each with its own SQLite telemetry store: the stored share
-(rows of ``telemetry_points``, one per message) and the CPU of the whole replica, which also reads
+(the points of its runs, one per message) and the CPU of the whole replica, which also reads
 every message through its inbox, per message the fleet sent; K = 1 to 4 (``HOSTS``), so the
 closing note gives the 4-host figure both fitted through K = 1 and 3 and as measured with 4 (on
 this machine's cores, each replica far from one core at the offered rate). No assertions.
@@ -37,7 +37,6 @@ import os
 import secrets
 import shutil
 import signal
-import sqlite3
 import sys
 import tempfile
 import time
@@ -47,7 +46,7 @@ from typing import Any
 
 from dronefleet.messaging.broker_users import BrokerRole, BrokerUsers
 from dronefleet.messaging.nats_broker import NatsBroker
-from ground_capacity import TELEMETRY, fleet_process
+from ground_capacity import TELEMETRY, fleet_process, stored_points
 from mqtt_load import TELEMETRY_HZ, proc_cpu_s
 
 # The tests' PostgreSQL helpers: the server CI runs (DRONEFLEET_TEST_POSTGRES names another)
@@ -172,14 +171,6 @@ async def partition_of(url: str, token: str) -> str:
 _DRAINS: set[asyncio.Task[bytes]] = set()
 
 
-def lat_rows(path: Path) -> int:
-    """Messages stored (each has one ``lat``)."""
-    if not path.exists():
-        return 0
-    with sqlite3.connect(path) as db:
-        return int(db.execute("SELECT count(*) FROM telemetry_points").fetchone()[0])
-
-
 async def replicas_size(
     k: int,
     broker: NatsBroker,
@@ -221,13 +212,13 @@ async def _replicas_on(
                   "after the last one started")  # fmt: skip
         await asyncio.sleep(args.warmup)
         sent0 = fleet_counters[TELEMETRY]
-        rows0 = [lat_rows(s) for s in stores]
+        rows0 = [stored_points(s) for s in stores]
         cpu0 = [proc_cpu_s(p.pid) for p in procs]
         began = time.monotonic()
         await asyncio.sleep(args.seconds)
         window = time.monotonic() - began
         cpu = [proc_cpu_s(p.pid) - c for p, c in zip(procs, cpu0, strict=True)]
-        rows = [lat_rows(s) - r for s, r in zip(stores, rows0, strict=True)]
+        rows = [stored_points(s) - r for s, r in zip(stores, rows0, strict=True)]
         sent = fleet_counters[TELEMETRY] - sent0
         lags = [await stream_lag_s(url, token, "D00000") for url in webs]
         parts = [await partition_of(url, token) for url in webs]
@@ -251,12 +242,6 @@ async def _replicas_on(
               f"{lags[i]:.2f} s behind{parts[i]}")  # fmt: skip
     per_sent = max(cpu) / max(sent, 1)
     return k, total / window, per_sent
-
-
-def stored_rows(path: Path) -> int:
-    """Messages stored (a row each)."""
-    with sqlite3.connect(path) as db:
-        return int(db.execute("SELECT count(*) FROM telemetry_points").fetchone()[0])
 
 
 async def run(args: argparse.Namespace) -> None:
@@ -378,7 +363,7 @@ async def one_size(
         # (the counters lag by up to 0.2 s: about a fifth of a second's messages).
         behind = fleet_counters[TELEMETRY] - joined - sum(c[TAKEN] for c in counters)
         await asyncio.sleep(1.5)  # the last batches written
-        rows = [stored_rows(s) for s in stores]
+        rows = [stored_points(s) for s in stores]
     finally:
         for proc in procs:
             proc.terminate()

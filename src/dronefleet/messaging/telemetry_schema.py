@@ -60,7 +60,16 @@ def value_range(name: str) -> tuple[float, float] | None:
 
 
 def screen(fields: dict[str, float]) -> tuple[dict[str, float], int, int]:
-    """The fields worth storing, and how many were unknown and how many out of range."""
+    """The fields worth storing, and how many were unknown and how many out of range. A flight
+    sample, every field known and possible (nearly every message), is kept as it came, not
+    copied (a validated message's map is never changed after): it was 5 % of a replica's loop
+    at 10,000 drones on 4 hosts (issue 27)."""
+    for name, value in fields.items():
+        bounds = FLIGHT_FIELDS.get(name)
+        if bounds is None or not bounds[0] <= value <= bounds[1]:  # NaN fails both
+            break
+    else:
+        return fields, 0, 0
     kept: dict[str, float] = {}
     unknown = out_of_range = 0
     for name, value in fields.items():

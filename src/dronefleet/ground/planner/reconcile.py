@@ -30,7 +30,7 @@ from dronefleet.ground.planner.models import Leg, LegState, MissionRecord, Missi
 from dronefleet.messaging.client import QOS_COMMAND
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.ground_events import FleetChange, FleetEvent
-from dronefleet.messaging.inbound import parse_message, speaks_for_itself
+from dronefleet.messaging.inbound import parse_message
 from dronefleet.messaging.missions import (
     MissionAction,
     MissionProgress,
@@ -123,7 +123,7 @@ async def forgotten(planner: MissionPlanner, record: MissionRecord, leg: Leg) ->
             return
 
 
-async def on_heartbeat(planner: MissionPlanner, topic_name: str, payload: bytes) -> None:
+async def on_heartbeat(planner: MissionPlanner, beat: Heartbeat) -> None:
     """A drone that says it flies no mission (or another) while a leg of ours is running on it
     was restarted, or dropped the leg: after :data:`MISMATCHED_BEATS` such heartbeats its
     reports are asked for. It sends what it kept and says the leg was interrupted, or that it
@@ -131,11 +131,6 @@ async def on_heartbeat(planner: MissionPlanner, topic_name: str, payload: bytes)
     accepted is asked about the same way: a drone that never got it (sent while its link was
     down) says it keeps nothing of it, and is sent it again (issue 26: a lost drone's way home,
     sent as it came back, never arrived, and the mission never ended)."""
-    try:
-        beat = parse_message(Heartbeat, payload)
-        speaks_for_itself(topic_name, beat.drone_id)
-    except MessageError:
-        return  # counted and dropped by the Drone Identifier
     running = [
         leg
         for record in list(planner.missions.values())

@@ -52,7 +52,7 @@ from dronefleet.messaging.missions import (
     MissionRequest,
 )
 from dronefleet.messaging.rpc import Requester
-from dronefleet.messaging.status import Telemetry
+from dronefleet.messaging.status import Heartbeat, Telemetry
 from dronefleet.messaging.topics import (
     IDENTIFIER_EVENTS,
     PLANNER_EVENTS,
@@ -141,11 +141,6 @@ class MissionPlanner:
                 any_drone(Channel.MISSION), self._on_progress, qos=QOS_COMMAND
             )
             await self.client.subscribe(any_drone(Channel.ALARMS), self._on_alarm, qos=QOS_COMMAND)
-            await self.client.subscribe(
-                any_drone(Channel.HEARTBEATS),
-                lambda t, p: reconcile.on_heartbeat(self, t, p),
-                qos=QOS_STREAM,
-            )
             await self.client.subscribe(
                 IDENTIFIER_EVENTS,
                 lambda t, p: reconcile.on_fleet_event(self, t, p),
@@ -353,6 +348,10 @@ class MissionPlanner:
     # -- alarms (alarms.py) ------------------------------------------------------------------
     async def _on_alarm(self, topic_name: str, payload: bytes) -> None:
         await alarms.on_alarm(self, topic_name, payload)
+
+    async def on_heartbeat(self, beat: Heartbeat) -> None:
+        """A drone's heartbeat, as the ground's Fleet Inbox read it (reconcile.on_heartbeat)."""
+        await reconcile.on_heartbeat(self, beat)
 
     # -- paths -------------------------------------------------------------------------------
     def on_telemetry(self, msg: Telemetry) -> None:

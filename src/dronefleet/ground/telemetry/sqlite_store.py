@@ -16,6 +16,14 @@ bench/ground_capacity.py). It was then a row per field: 16 rows per message, eac
 entry, 0.041-0.057 ms of CPU per message against 0.010-0.014 ms for a row per message (5,000
 messages of 16 fields, measured with SQLite alone), with half the write-ahead log. A store
 written then keeps its rows (``telemetry_rows``), still read.
+
+A row is a **run**: one drone's points of one batch, in time order (``telemetry_runs``, at most
+:data:`RUN_SPAN_US` apart), so the index by drone and time gets an entry a run, not a point.
+That index is most of a row's cost: each new entry goes in its drone's place, among thousands of
+drones' (2,500 drones' points into a table of a million, SQLite alone: 17 us a point at a row a
+point, 8-11 us in runs of 2-4 points; at 12,500 points a second a replica's writer thread took
+0.25 of its one core, issue 27, bench/replica_share.py). A store written a row a point keeps
+those rows (``telemetry_points``), still read.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from pathlib import Path
+from typing import Any
 
 import aiosqlite
 import orjson
@@ -50,18 +59,35 @@ CREATE TABLE IF NOT EXISTS telemetry_points (
     fields TEXT NOT NULL
 );
 CREATE INDEX IF NOT EXISTS telemetry_points_drone_time ON telemetry_points (drone, time_us);
-CREATE VIEW IF NOT EXISTS telemetry (drone, time_us, field, value) AS
+CREATE TABLE IF NOT EXISTS telemetry_runs (
+    drone TEXT NOT NULL,
+    first_us INTEGER NOT NULL,
+    last_us INTEGER NOT NULL,
+    n INTEGER NOT NULL,
+    points TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS telemetry_runs_drone_time ON telemetry_runs (drone, first_us);
+DROP VIEW IF EXISTS telemetry;
+CREATE VIEW telemetry (drone, time_us, field, value) AS
     SELECT drone, time_us, field, value FROM telemetry_rows
     UNION ALL
-    SELECT p.drone, p.time_us, f.key, f.value FROM telemetry_points AS p, json_each(p.fields) AS f;
+    SELECT p.drone, p.time_us, f.key, f.value FROM telemetry_points AS p, json_each(p.fields) AS f
+    UNION ALL
+    SELECT r.drone, json_extract(p.value, '$[0]'), f.key, f.value
+    FROM telemetry_runs AS r, json_each(r.points) AS p, json_each(p.value, '$[1]') AS f;
 """
-#: A batch of points, ``[[drone, time_us, {field: value}], ...]``, a row each.
+#: Longest a run spans, first point to last (microseconds): a query reads, through the index,
+#: the runs that begin up to this long before its range. A batch spans a flush period unless
+#: the store was away; then a drone's points are cut into runs of this span.
+RUN_SPAN_US = 10_000_000
+#: A batch of runs, ``[[drone, first_us, last_us, n, [[time_us, {field: value}], ...]], ...]``.
 _INSERT = """
-INSERT INTO telemetry_points (drone, time_us, fields)
-SELECT json_extract(value, '$[0]'), json_extract(value, '$[1]'), json_extract(value, '$[2]')
+INSERT INTO telemetry_runs (drone, first_us, last_us, n, points)
+SELECT json_extract(value, '$[0]'), json_extract(value, '$[1]'), json_extract(value, '$[2]'),
+    json_extract(value, '$[3]'), json_extract(value, '$[4]')
 FROM json_each(?)
 """
-#: One drone's fields, mean per bucket, from both tables (each through its own index).
+#: One drone's fields, mean per bucket, from the three tables (each through its own index).
 _QUERY = """
 SELECT field, bucket, AVG(value) FROM (
     SELECT field, (time_us / :every) * :every AS bucket, value FROM telemetry_rows
@@ -70,6 +96,14 @@ SELECT field, bucket, AVG(value) FROM (
     SELECT f.key AS field, (p.time_us / :every) * :every AS bucket, f.value AS value
     FROM telemetry_points AS p, json_each(p.fields) AS f
     WHERE p.drone = :drone AND p.time_us >= :from_us AND p.time_us < :to_us {points_fields}
+    UNION ALL
+    SELECT f.key AS field, (t.time_us / :every) * :every AS bucket, f.value AS value
+    FROM (
+        SELECT json_extract(p.value, '$[0]') AS time_us, p.value AS point
+        FROM telemetry_runs AS r, json_each(r.points) AS p
+        WHERE r.drone = :drone AND r.first_us >= :from_us - :span AND r.first_us < :to_us
+    ) AS t, json_each(t.point, '$[1]') AS f
+    WHERE t.time_us >= :from_us AND t.time_us < :to_us {runs_fields}
 ) GROUP BY field, bucket ORDER BY field, bucket
 """
 
@@ -117,7 +151,7 @@ class SqliteTelemetryStore:
             await held(db.close())
 
     async def write(self, points: list[TelemetryPoint]) -> int:
-        batch = orjson.dumps([(p.drone_id, p.time_us, p.fields) for p in points])
+        batch = orjson.dumps(runs(points))
         async with self._writing:  # one batch, one transaction, one statement
             try:
                 await held(self.db.execute("BEGIN"))
@@ -131,6 +165,7 @@ class SqliteTelemetryStore:
 
     async def query(self, query: TelemetryQuery) -> TelemetrySeries:
         args: dict[str, object] = {
+            "span": RUN_SPAN_US,
             "every": query.every_us,
             "drone": query.drone_id,
             "from_us": query.from_us,
@@ -141,7 +176,9 @@ class SqliteTelemetryStore:
             names = ", ".join(f":f{i}" for i in range(len(query.fields)))
             rows_fields, points_fields = f"AND field IN ({names})", f"AND f.key IN ({names})"
             args.update({f"f{i}": name for i, name in enumerate(query.fields)})
-        sql = _QUERY.format(rows_fields=rows_fields, points_fields=points_fields)
+        sql = _QUERY.format(
+            rows_fields=rows_fields, points_fields=points_fields, runs_fields=points_fields
+        )
         cursor = await held(self.db.execute(sql, args))
         try:
             rows = await held(cursor.fetchall())
@@ -151,3 +188,27 @@ class SqliteTelemetryStore:
         for name, bucket, mean in rows:
             result.series.setdefault(name, []).append((bucket / 1e6, round_value(mean)))
         return result
+
+
+def runs(points: list[TelemetryPoint]) -> list[tuple[str, int, int, int, list[Any]]]:
+    """``points`` as rows of ``telemetry_runs``: each drone's, in time order, cut where a run
+    would span more than :data:`RUN_SPAN_US`."""
+    by_drone: dict[str, list[tuple[int, dict[str, float]]]] = {}
+    for p in points:
+        try:
+            by_drone[p.drone_id].append((p.time_us, p.fields))
+        except KeyError:
+            by_drone[p.drone_id] = [(p.time_us, p.fields)]
+    rows: list[tuple[str, int, int, int, list[Any]]] = []
+    for drone_id, run in by_drone.items():
+        run.sort(key=_time_of)
+        while run[-1][0] - run[0][0] > RUN_SPAN_US:
+            cut = next(i for i, (t, _) in enumerate(run) if t - run[0][0] > RUN_SPAN_US)
+            rows.append((drone_id, run[0][0], run[cut - 1][0], cut, run[:cut]))
+            run = run[cut:]
+        rows.append((drone_id, run[0][0], run[-1][0], len(run), run))
+    return rows
+
+
+def _time_of(point: tuple[int, dict[str, float]]) -> int:
+    return point[0]
