@@ -87,6 +87,8 @@ def nats_subject(mqtt: str) -> list[str]:
 
 def mqtt_topic(subject: str) -> str:
     """The MQTT topic of a NATS subject a message came on (:func:`nats_subject` undone)."""
+    if "//" not in subject:  # no '.' in the topic: nearly every message, at one replace
+        return subject.replace(".", "/")
     return "/".join(token.replace("//", ".") for token in subject.split("."))
 
 
