@@ -243,3 +243,39 @@ async def test_a_burst_of_packets_of_every_size_comes_whole_and_in_order(broker_
             await pub.publish(f"burst/{i % 7}", payload, qos=1)
         await asyncio.wait_for(done.wait(), 30)
     assert got == sent
+
+
+async def test_a_filter_a_persistent_session_no_longer_wants_is_unsubscribed(broker_url):
+    # A resumed session keeps its subscriptions at the broker: a component of a newer version
+    # that no longer subscribes a filter would be sent its messages for ever (the Mission
+    # Planner's heartbeats, issue 27), unless it names the filter as retired.
+    async with BrokerClient(broker_url, "planner", persistent_session=True) as old:
+        await old.subscribe("+/heartbeats/out", lambda t, p: asyncio.sleep(0), qos=0)
+    with pytest.raises(ValueError, match="persistent session only"):
+        BrokerClient(broker_url, "planner", retired=("+/heartbeats/out",))
+    async with BrokerClient(broker_url, "drone") as drone:
+        assert await _sent_heartbeats(broker_url, drone, retired=())  # the old session's filter
+        assert not await _sent_heartbeats(broker_url, drone, retired=("+/heartbeats/out",))
+        assert not await _sent_heartbeats(broker_url, drone, retired=())  # gone for good
+
+
+async def _sent_heartbeats(broker_url: str, drone: BrokerClient, retired: tuple[str, ...]) -> bool:
+    """Whether the broker sends the planner's session a heartbeat, subscribed or not."""
+    planner = BrokerClient(broker_url, "planner", persistent_session=True, retired=retired)
+    delivered: list[str] = []
+    routes = planner._routes.of
+    planner._routes.of = lambda t: (delivered.append(t), routes(t))[1]  # every message it gets
+    marks: asyncio.Queue = asyncio.Queue()
+    await planner.subscribe("+/mark/out", lambda t, p: marks.put(p), qos=0)
+    if retired:
+        with pytest.raises(ValueError, match="retired"):
+            await planner.subscribe(retired[0], lambda t, p: asyncio.sleep(0))
+    await planner.start()  # its filters in place (and the retired ones gone) at the broker
+    try:
+        # In order on one link each way: a heartbeat comes before the mark published after it.
+        await drone.publish("Q1/heartbeats/out", b"{}", qos=0)
+        await drone.publish("Q1/mark/out", b"1", qos=0)
+        assert await asyncio.wait_for(marks.get(), 10) == b"1"
+    finally:
+        await planner.stop()
+    return "Q1/heartbeats/out" in delivered

@@ -42,9 +42,21 @@ class BrokerClient(Publishing):
     """A persistent, self-healing connection to one MQTT broker."""
 
     def __init__(
-        self, url: str | BrokerUrl, client_id: str, **options: Unpack[LinkOptions]
+        self,
+        url: str | BrokerUrl,
+        client_id: str,
+        *,
+        retired: tuple[str, ...] = (),
+        **options: Unpack[LinkOptions],
     ) -> None:
+        if retired and not options.get("persistent_session"):
+            raise ValueError("retired filters apply to a persistent session only")
         super().__init__(url, client_id, **options)
+        #: Filters an earlier version of this component subscribed in its persistent session and
+        #: this one does not. A resumed session keeps its subscriptions at the broker, which
+        #: would send their messages for ever (the Mission Planner's heartbeats, 2,000 a second
+        #: at 10,000 drones: issue 27), so they are unsubscribed on every link.
+        self._retired = retired
         self._subs: list[Subscription] = []
         self._routes = TopicRoutes()
         self._at_broker: dict[str, int] = {}  # filter -> QoS subscribed on this connection
@@ -109,6 +121,8 @@ class BrokerClient(Publishing):
     # -- subscribe ---------------------------------------------------------------------------
     async def subscribe(self, pattern: str, handler: Handler, *, qos: int = QOS_COMMAND) -> None:
         """Call ``handler(topic, payload)`` for each message matching ``pattern``, in order."""
+        if pattern in self._retired:
+            raise ValueError(f"{pattern!r} is a retired filter of this client: it is unsubscribed")
         sub = Subscription(pattern, handler, qos)
         self._routes.add(sub)
         sub.worker = asyncio.create_task(work(sub), name=f"sub:{pattern}")
@@ -141,6 +155,8 @@ class BrokerClient(Publishing):
     async def _link_up(self, client: Any) -> None:
         """On a new link: nothing is subscribed there yet; subscribe what is wanted."""
         self._at_broker = {}
+        if self._retired:
+            await self._unsubscribe(client, list(self._retired))
         await self._sync_filters(client)
 
     async def _sync_filters(self, client: Any) -> None:
@@ -162,15 +178,19 @@ class BrokerClient(Publishing):
                             await client.subscribe(pattern, qos=qos)
                     self._at_broker.update(chunk)
                 gone = [p for p in self._at_broker if p not in target]
-                for start in range(0, len(gone), FILTERS_PER_PACKET):
-                    dropped = gone[start : start + FILTERS_PER_PACKET]
-                    if isinstance(client, aiomqtt.Client) and len(dropped) > 1:
-                        await client.unsubscribe(dropped)
-                    else:
-                        for pattern in dropped:
-                            await client.unsubscribe(pattern)
-                    for pattern in dropped:
-                        del self._at_broker[pattern]
+                await self._unsubscribe(client, gone)
+                for pattern in gone:
+                    del self._at_broker[pattern]
+
+    @staticmethod
+    async def _unsubscribe(client: Any, filters: list[str]) -> None:
+        for start in range(0, len(filters), FILTERS_PER_PACKET):
+            dropped = filters[start : start + FILTERS_PER_PACKET]
+            if isinstance(client, aiomqtt.Client) and len(dropped) > 1:
+                await client.unsubscribe(dropped)
+            else:
+                for pattern in dropped:
+                    await client.unsubscribe(pattern)
 
     # -- incoming messages -------------------------------------------------------------------
     def _release(self, key: tuple[int, int]) -> None:

@@ -84,7 +84,11 @@ class MissionPlanner:
         reserve_pct: float = 20.0,
         worker: PlanningWorker | None = None,
     ) -> None:
-        self.client = BrokerClient(broker_url, client_id, persistent_session=True)
+        # Heartbeats come from the ground's Fleet Inbox: a session an earlier version subscribed
+        # to them (``+/heartbeats/out``) on this link is rid of that subscription.
+        self.client = BrokerClient(
+            broker_url, client_id, persistent_session=True, retired=(any_drone(Channel.HEARTBEATS),)
+        )
         #: Reports and alarms dropped, by kind: malformed, or about another drone than the one
         #: whose topic they came on (issue 12: a forged alarm must start no replacement).
         self.dropped: Counter[str] = Counter()
