@@ -50,7 +50,8 @@ from dronefleet.ground.separation_monitor import SeparationMonitor
 from dronefleet.ground.state import StateStore
 from dronefleet.ground.state_pg import is_postgres_url, state_store
 from dronefleet.ground.telemetry.connector import TelemetryConnector
-from dronefleet.ground.telemetry.shared_ingest import SharedIngest, check_shareable
+from dronefleet.ground.telemetry.shared_ingest import OPTION as SHARE_INGESTION
+from dronefleet.ground.telemetry.shared_ingest import SharedIngest
 from dronefleet.ground.telemetry.store import TelemetryStore, open_store
 from dronefleet.messaging.nats_link import check_usable
 from dronefleet.messaging.url import BrokerUrl
@@ -162,7 +163,7 @@ class GroundServices:
 
     async def _start(self) -> None:
         if self.share_ingestion is not None:
-            check_shareable(self.broker_url)  # refused before anything starts
+            check_usable(self.broker_url, SHARE_INGESTION)  # refused before anything starts
         if self.fleet_over_nats is not None:
             check_usable(self.broker_url, OVER_NATS)
         if self.partition_fleet and self.share_ingestion is not None:

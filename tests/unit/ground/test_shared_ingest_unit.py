@@ -8,13 +8,14 @@ import pytest
 
 from dronefleet.cli import build_parser
 from dronefleet.ground.telemetry.shared_ingest import (
+    OPTION,
     SUBJECT,
     IngestionNotShared,
     SharedIngest,
-    nats_servers,
 )
 from dronefleet.messaging.broker_users import BrokerRole, BrokerUser
 from dronefleet.messaging.nats_config import mqtt_topic, nats_subject, permissions
+from dronefleet.messaging.nats_link import nats_servers
 from dronefleet.messaging.status import Telemetry
 from dronefleet.messaging.url import BrokerUrl
 
@@ -22,10 +23,10 @@ GROUND = BrokerUrl("127.0.0.1", 1883, username="ground", password="secret")
 
 
 def test_the_nats_address_is_one_or_more_nodes_and_nothing_else():
-    assert nats_servers("nats://a:4222,b:4223") == ["nats://a:4222", "nats://b:4223"]
+    assert nats_servers("nats://a:4222,b:4223", OPTION) == ["nats://a:4222", "nats://b:4223"]
     for wrong in ("mqtt://a:1883", "a:4222", "nats://", "http://a", "tls://a:4222"):
         with pytest.raises(IngestionNotShared):
-            nats_servers(wrong)
+            nats_servers(wrong, OPTION)
     with pytest.raises(SystemExit):
         build_parser().parse_args(["ground", "--share-ingestion", "mqtt://a:1883"])
     args = build_parser().parse_args(["ground", "--share-ingestion", "nats://a:4222"])

@@ -29,8 +29,7 @@ from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.inbound import parse_message, speaks_for_itself
 from dronefleet.messaging.log_throttle import LogThrottle
 from dronefleet.messaging.nats_config import nats_subject
-from dronefleet.messaging.nats_link import NatsLink, NatsNotUsable, check_usable
-from dronefleet.messaging.nats_link import nats_servers as _servers
+from dronefleet.messaging.nats_link import NatsLink, NatsNotUsable
 from dronefleet.messaging.status import Telemetry
 from dronefleet.messaging.topics import Channel, any_drone
 from dronefleet.messaging.url import BrokerUrl
@@ -42,19 +41,10 @@ _throttle = LogThrottle(log)
 QUEUE_GROUP = "ground-telemetry"
 #: Every drone's telemetry, as a NATS subject: ``*.telemetry.out``.
 SUBJECT = nats_subject(any_drone(Channel.TELEMETRY))[0]
+#: The option, named in its refusals (messaging/nats_link.py's ``check_usable``, ...).
 OPTION = "--share-ingestion"
 #: The option's refusals (messaging/nats_link.py's, named for it).
 IngestionNotShared = NatsNotUsable
-
-
-def nats_servers(url: str) -> list[str]:
-    """``nats://host:port[,host:port...]`` as nats-py's list of servers."""
-    return _servers(url, OPTION)
-
-
-def check_shareable(broker_url: BrokerUrl) -> None:
-    """Refuse, before anything starts, a broker the option cannot apply to."""
-    check_usable(broker_url, OPTION)
 
 
 class SharedIngest:

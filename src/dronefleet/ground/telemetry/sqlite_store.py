@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+from operator import itemgetter
 from pathlib import Path
 from typing import Any
 
@@ -103,7 +104,7 @@ SELECT field, bucket, AVG(value) FROM (
         FROM telemetry_runs AS r, json_each(r.points) AS p
         WHERE r.drone = :drone AND r.first_us >= :from_us - :span AND r.first_us < :to_us
     ) AS t, json_each(t.point, '$[1]') AS f
-    WHERE t.time_us >= :from_us AND t.time_us < :to_us {runs_fields}
+    WHERE t.time_us >= :from_us AND t.time_us < :to_us {points_fields}
 ) GROUP BY field, bucket ORDER BY field, bucket
 """
 
@@ -176,9 +177,7 @@ class SqliteTelemetryStore:
             names = ", ".join(f":f{i}" for i in range(len(query.fields)))
             rows_fields, points_fields = f"AND field IN ({names})", f"AND f.key IN ({names})"
             args.update({f"f{i}": name for i, name in enumerate(query.fields)})
-        sql = _QUERY.format(
-            rows_fields=rows_fields, points_fields=points_fields, runs_fields=points_fields
-        )
+        sql = _QUERY.format(rows_fields=rows_fields, points_fields=points_fields)
         cursor = await held(self.db.execute(sql, args))
         try:
             rows = await held(cursor.fetchall())
@@ -201,14 +200,10 @@ def runs(points: list[TelemetryPoint]) -> list[tuple[str, int, int, int, list[An
             by_drone[p.drone_id] = [(p.time_us, p.fields)]
     rows: list[tuple[str, int, int, int, list[Any]]] = []
     for drone_id, run in by_drone.items():
-        run.sort(key=_time_of)
+        run.sort(key=itemgetter(0))  # by time
         while run[-1][0] - run[0][0] > RUN_SPAN_US:
             cut = next(i for i, (t, _) in enumerate(run) if t - run[0][0] > RUN_SPAN_US)
             rows.append((drone_id, run[0][0], run[cut - 1][0], cut, run[:cut]))
             run = run[cut:]
         rows.append((drone_id, run[0][0], run[-1][0], len(run), run))
     return rows
-
-
-def _time_of(point: tuple[int, dict[str, float]]) -> int:
-    return point[0]
