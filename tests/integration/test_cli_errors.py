@@ -75,3 +75,23 @@ def test_a_port_in_use_is_one_line_and_exit_2(tmp_path, mosquitto_broker):
     assert "Traceback" not in stderr
     (line,) = said(stderr)
     assert "in use" in line
+
+
+@pytest.mark.parametrize("option", ["--state", "--store"])
+def test_a_file_that_is_not_a_database_is_one_line_exit_2_and_left_as_it_was(
+    tmp_path, mosquitto_broker, option
+):
+    """It printed a traceback and then never exited: the connection's thread (not a daemon)
+    was left open with the file it could not use."""
+    garbage = tmp_path / "not-a-database.db"
+    garbage.write_bytes(bytes(range(256)) * 20)
+    files = {"--state": str(tmp_path / "g.db"), "--store": f"sqlite:///{tmp_path}/t.db"}
+    files[option] = str(garbage) if option == "--state" else f"sqlite:///{garbage}"
+    code, stderr = run(
+        "ground", "--broker", str(mosquitto_broker), "--http", "127.0.0.1:0",
+        "--state", files["--state"], "--store", files["--store"],
+    )  # fmt: skip
+    assert code == 2 and "Traceback" not in stderr, stderr
+    (line,) = said(stderr)
+    assert f"{option} " in line and "cannot be used: file is not a database" in line
+    assert garbage.read_bytes() == bytes(range(256)) * 20

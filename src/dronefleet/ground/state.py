@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import Iterable, Sequence
+import sqlite3
+from collections.abc import AsyncIterator, Iterable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -25,6 +26,7 @@ import aiosqlite
 import orjson
 
 from dronefleet.clock import timestamp_s
+from dronefleet.errors import InvalidInput
 from dronefleet.owner_only import private_file
 from dronefleet.virtual_loop import held
 
@@ -68,6 +70,20 @@ async def _roll_back(db: aiosqlite.Connection) -> None:
     second cancellation; with no transaction open it does nothing (sqlite3's rollback)."""
     with contextlib.suppress(Exception):
         await held(asyncio.shield(db.rollback()))
+
+
+@contextlib.asynccontextmanager
+async def closed_unless_opened(db: aiosqlite.Connection, what: str) -> AsyncIterator[None]:
+    """Close ``db`` if its set-up fails, and say which file it is when that file is not a
+    database: aiosqlite's connection thread is not a daemon, so a connection left open kept
+    the ground from exiting (it hung after printing a traceback for a garbage --state file)."""
+    try:
+        yield
+    except BaseException as exc:
+        await held(db.close())
+        if isinstance(exc, sqlite3.DatabaseError):
+            raise InvalidInput(f"{what} cannot be used: {exc}") from exc
+        raise
 
 
 def _owner_only(path: Path) -> None:
@@ -123,9 +139,10 @@ class StateStore:
         if self.path != ":memory:":
             await asyncio.to_thread(_owner_only, Path(self.path))
         db = await held(aiosqlite.connect(self.path, isolation_level=None))
-        await held(db.execute("PRAGMA journal_mode=WAL"))
-        await held(db.execute("PRAGMA synchronous=NORMAL"))
-        await held(db.executescript(SCHEMA))
+        async with closed_unless_opened(db, f"--state {self.path}"):
+            await held(db.execute("PRAGMA journal_mode=WAL"))
+            await held(db.execute("PRAGMA synchronous=NORMAL"))
+            await held(db.executescript(SCHEMA))
         self._db = db
         return self
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import sqlite3
 
+import aiosqlite
 import pytest
 from PIL import Image
 
@@ -74,6 +75,7 @@ async def test_a_jpeg_set_without_its_format_in_the_metadata_is_read_by_its_byte
         (lambda p: build(p, AVEIRO, range(5, 6), metadata={"format": "pbf"}), "vector tiles"),
         (lambda p: build(p, AVEIRO, range(5, 6), metadata={"bounds": "a,b,c,d"}), "bounds"),
         (lambda p: None, "cannot be opened"),
+        (lambda p: p.mkdir(), "cannot be opened"),
     ],
 )
 async def test_files_it_cannot_serve_are_refused_with_the_reason(tmp_path, make, reason):
@@ -81,3 +83,19 @@ async def test_files_it_cannot_serve_are_refused_with_the_reason(tmp_path, make,
     make(path)
     with pytest.raises(MBTilesError, match=reason):
         await MBTiles.open(path)
+
+
+@pytest.mark.parametrize("make", [lambda p: None, lambda p: p.mkdir()], ids=["missing", "folder"])
+async def test_a_file_that_cannot_be_read_is_refused_before_sqlite_is_started(
+    tmp_path, make, monkeypatch
+):
+    """aiosqlite starts a thread per connection, and a failed connect leaves it a stop to answer
+    on a loop that may be closed by then (omnilib/aiosqlite#389; it showed up as a thread
+    exception in a later test): an unreadable file never gets that far."""
+    connects: list[object] = []
+    monkeypatch.setattr(aiosqlite, "connect", lambda *args, **kwargs: connects.append(args))
+    path = tmp_path / "bad.mbtiles"
+    make(path)
+    with pytest.raises(MBTilesError, match="cannot be opened"):
+        await MBTiles.open(path)
+    assert connects == []

@@ -15,6 +15,7 @@ synchronous readers or whole tile servers; the format is two SQL queries.
 
 from __future__ import annotations
 
+import asyncio
 import math
 from pathlib import Path
 from urllib.parse import quote
@@ -71,7 +72,12 @@ class MBTiles:
     @classmethod
     async def open(cls, path: str | Path) -> MBTiles:
         path = Path(path)
-        try:  # a URI, for mode=ro: SQLite reads relative "file:" paths too
+        try:
+            # Read first: a file that cannot be read is refused before aiosqlite starts a
+            # thread for it (a failed connect leaves that thread a stop to answer on a loop that
+            # may be closed by then: omnilib/aiosqlite#389).
+            await asyncio.to_thread(_readable, path)
+            # A URI, for mode=ro: SQLite reads relative "file:" paths too.
             db = await aiosqlite.connect(f"file:{quote(str(path))}?mode=ro", uri=True)
         except Exception as exc:  # sqlite3 says "unable to open database file"
             raise MBTilesError(f"{path} cannot be opened: {exc}") from exc
@@ -96,6 +102,12 @@ class MBTiles:
 
     async def close(self) -> None:
         await self._db.close()
+
+
+def _readable(path: Path) -> None:
+    """Raise the OSError (missing, a folder, not allowed) that opening ``path`` would."""
+    with path.open("rb"):
+        pass
 
 
 async def _read_tileset(db: aiosqlite.Connection, path: Path) -> TileSet:

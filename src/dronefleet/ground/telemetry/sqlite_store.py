@@ -37,6 +37,7 @@ from typing import Any
 import aiosqlite
 import orjson
 
+from dronefleet.ground.state import closed_unless_opened
 from dronefleet.ground.telemetry.store import (
     TelemetryPoint,
     TelemetryQuery,
@@ -140,10 +141,11 @@ class SqliteTelemetryStore:
             # -shm files are too; one left 0644 by an earlier version is closed to others.
             await asyncio.to_thread(private_file, Path(self.path))
         db = await held(aiosqlite.connect(self.path, isolation_level=None))
-        await held(db.execute("PRAGMA journal_mode=WAL"))
-        await held(db.execute("PRAGMA synchronous=NORMAL"))
-        await _rows_table_renamed(db)
-        await held(db.executescript(_SCHEMA))
+        async with closed_unless_opened(db, f"--store {self.url}"):
+            await held(db.execute("PRAGMA journal_mode=WAL"))
+            await held(db.execute("PRAGMA synchronous=NORMAL"))
+            await _rows_table_renamed(db)
+            await held(db.executescript(_SCHEMA))
         self._db = db
 
     async def close(self) -> None:
