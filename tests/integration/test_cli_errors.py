@@ -95,3 +95,21 @@ def test_a_file_that_is_not_a_database_is_one_line_exit_2_and_left_as_it_was(
     (line,) = said(stderr)
     assert f"{option} " in line and "cannot be used: file is not a database" in line
     assert garbage.read_bytes() == bytes(range(256)) * 20
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("credentials", "add-drone", "QUAD_1", "--password-file", "secret"),
+        ("broker-config", "--out", "mosquitto"),
+    ],
+)
+def test_the_fleets_users_on_a_state_that_is_not_a_database_are_one_line(tmp_path, command):
+    garbage = tmp_path / "not-a-database.db"
+    garbage.write_bytes(bytes(range(256)) * 20)
+    *words, last = command
+    code, stderr = run(*words, str(tmp_path / last), "--state", str(garbage))
+    assert code == 2 and "Traceback" not in stderr, stderr
+    (line,) = said(stderr)
+    assert "cannot be used: file is not a database" in line
+    assert garbage.read_bytes() == bytes(range(256)) * 20

@@ -134,9 +134,9 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 130
-    except (OSError, ValueError, RuntimeError) as exc:
-        # A port in use, a folder that cannot be written, a broker that is not there: what went
-        # wrong in one line (issue 11); the traceback is for -v.
+    except (OSError, ValueError, RuntimeError, DronefleetError) as exc:
+        # A port in use, a folder that cannot be written, a broker that is not there, a --state
+        # that is not a database: what went wrong in one line (issue 11); the traceback is for -v.
         if args.verbose:
             raise
         print(f"dronefleet {args.command}: {_reason(exc)} (-v shows the details)", file=sys.stderr)

@@ -25,7 +25,7 @@ from typing import Any
 
 import asyncpg
 
-from dronefleet.errors import Unavailable
+from dronefleet.errors import InvalidInput, Unavailable
 from dronefleet.ground.state import SCHEMA, StateStore, opened
 
 #: Seconds a statement (or a connection attempt) may take before the database counts as lost.
@@ -110,7 +110,15 @@ class PostgresStateStore(StateStore):
             )
         except _LOST as exc:
             raise StateUnavailable(f"the ground's PostgreSQL database: {_why(exc)}") from exc
-        await self.script(SCHEMA)
+        except asyncpg.PostgresError as exc:  # no such role or database, a wrong password
+            raise InvalidInput(f"--state: PostgreSQL refused the ground: {_why(exc)}") from exc
+        try:
+            await self.script(SCHEMA)
+        except BaseException as exc:
+            await self.close()
+            if isinstance(exc, asyncpg.PostgresError):  # not allowed to create the tables
+                raise InvalidInput(f"--state: PostgreSQL refused the schema: {_why(exc)}") from exc
+            raise
         return self
 
     async def close(self) -> None:

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import asyncio
 import getpass
+import secrets
 
+import asyncpg
 import pytest
 
+from dronefleet.errors import InvalidInput
 from dronefleet.ground.broker_credentials import BrokerCredentials
 from dronefleet.ground.manager.auth import Role, TokenBook, hash_token
 from dronefleet.ground.manager.session import SessionBook
@@ -21,7 +24,7 @@ from dronefleet.ground.state_pg import (
     state_store,
 )
 from dronefleet.messaging.broker_users import BrokerRole
-from support.postgres import fresh_database, own_postgres
+from support.postgres import SHARED, fresh_database, fresh_database_async, own_postgres
 
 pytestmark = pytest.mark.integration
 
@@ -207,6 +210,36 @@ async def test_an_unreachable_database_refuses_to_open(tmp_path):
 
     with pytest.raises(StateUnavailable, match="PostgreSQL"):
         await PostgresStateStore(f"postgresql://postgres@127.0.0.1:{free_port()}/x").open()
+
+
+async def sql(url: str, statement: str) -> object:
+    con = await asyncpg.connect(url, timeout=10)
+    try:
+        return await con.fetchval(statement)
+    finally:
+        await con.close()
+
+
+async def test_a_database_that_refuses_the_ground_says_why_in_one_line():
+    """Not reachable is "unavailable" (above); reached and refused (no such role or database,
+    no right to make the tables) is the operator's to mend, said as such, not a traceback."""
+    role = f"dronefleet_nobody_{secrets.token_hex(4)}"
+    with pytest.raises(InvalidInput, match=f'refused the ground: .*role "{role}" does not exist'):
+        await PostgresStateStore(SHARED.replace("postgres@", f"{role}@", 1)).open()
+
+    async with fresh_database_async() as url:
+        await sql(url, f'CREATE ROLE "{role}" LOGIN')
+        try:
+            # A fresh database's public schema is its owner's to create in (PostgreSQL 15).
+            with pytest.raises(InvalidInput, match=r"refused the schema: .*permission denied"):
+                await PostgresStateStore(url.replace("postgres@", f"{role}@", 1)).open()
+            # The refused store left no pool behind.
+            assert (
+                await sql(url, f"SELECT count(*) FROM pg_stat_activity WHERE usename = '{role}'")
+                == 0
+            )
+        finally:
+            await sql(SHARED, f'DROP ROLE IF EXISTS "{role}"')
 
 
 def test_the_fleets_broker_users_are_made_in_either_state(state_spec, tmp_path):
