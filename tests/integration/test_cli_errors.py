@@ -5,6 +5,7 @@ unwritable state folder, MAVLink port 99999 and --speedup -1 all used to end in 
 from __future__ import annotations
 
 import socket
+import sqlite3
 import subprocess
 
 import pytest
@@ -113,3 +114,23 @@ def test_the_fleets_users_on_a_state_that_is_not_a_database_are_one_line(tmp_pat
     (line,) = said(stderr)
     assert "cannot be used: file is not a database" in line
     assert garbage.read_bytes() == bytes(range(256)) * 20
+
+
+def test_another_programs_database_as_state_is_one_line_and_left_as_it_was(
+    tmp_path, mosquitto_broker
+):
+    """``CREATE TABLE IF NOT EXISTS`` kept their ``drones`` table, and the first query on it
+    ended the ground in a traceback ("no such column: name")."""
+    theirs = tmp_path / "inventory.db"
+    with sqlite3.connect(theirs) as db:
+        db.execute("CREATE TABLE drones (serial TEXT, bought TEXT)")
+    db.close()
+    before = theirs.read_bytes()
+    code, stderr = run(
+        "ground", "--broker", str(mosquitto_broker), "--http", "127.0.0.1:0",
+        "--state", str(theirs), "--store", f"sqlite:///{tmp_path}/t.db",
+    )  # fmt: skip
+    assert code == 2 and "Traceback" not in stderr, stderr
+    (line,) = said(stderr)
+    assert "its table drones is not the ground's" in line
+    assert theirs.read_bytes() == before

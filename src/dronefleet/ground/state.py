@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import sqlite3
-from collections.abc import AsyncIterator, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -26,7 +25,7 @@ import aiosqlite
 import orjson
 
 from dronefleet.clock import timestamp_s
-from dronefleet.errors import InvalidInput
+from dronefleet.ground.sqlite_file import closed_unless_opened, refuse_foreign_tables
 from dronefleet.owner_only import private_file
 from dronefleet.virtual_loop import held
 
@@ -70,20 +69,6 @@ async def _roll_back(db: aiosqlite.Connection) -> None:
     second cancellation; with no transaction open it does nothing (sqlite3's rollback)."""
     with contextlib.suppress(Exception):
         await held(asyncio.shield(db.rollback()))
-
-
-@contextlib.asynccontextmanager
-async def closed_unless_opened(db: aiosqlite.Connection, what: str) -> AsyncIterator[None]:
-    """Close ``db`` if its set-up fails, and say which file it is when that file is not a
-    database: aiosqlite's connection thread is not a daemon, so a connection left open kept
-    the ground from exiting (it hung after printing a traceback for a garbage --state file)."""
-    try:
-        yield
-    except BaseException as exc:
-        await held(db.close())
-        if isinstance(exc, sqlite3.DatabaseError):
-            raise InvalidInput(f"{what} cannot be used: {exc}") from exc
-        raise
 
 
 def _owner_only(path: Path) -> None:
@@ -139,7 +124,8 @@ class StateStore:
         if self.path != ":memory:":
             await asyncio.to_thread(_owner_only, Path(self.path))
         db = await held(aiosqlite.connect(self.path, isolation_level=None))
-        async with closed_unless_opened(db, f"--state {self.path}"):
+        async with closed_unless_opened(db, self._what):
+            await refuse_foreign_tables(db, SCHEMA, self._what)  # before the file is changed
             await held(db.execute("PRAGMA journal_mode=WAL"))
             await held(db.execute("PRAGMA synchronous=NORMAL"))
             await held(db.executescript(SCHEMA))
@@ -155,9 +141,15 @@ class StateStore:
     def db(self) -> aiosqlite.Connection:
         return opened(self._db)
 
+    @property
+    def _what(self) -> str:
+        return f"--state {self.path}"
+
     async def script(self, sql: str) -> None:
-        """Run a script (a room's ``CREATE TABLE IF NOT EXISTS ...``)."""
+        """Run a script (a room's ``CREATE TABLE IF NOT EXISTS ...``); a table of one of its
+        names that is not the ground's is refused (sqlite_file.py)."""
         async with self._writing:
+            await refuse_foreign_tables(self.db, sql, self._what)
             await held(self.db.executescript(sql))
 
     async def write(self, *statements: tuple[str, Sequence[Any]]) -> list[int]:

@@ -37,7 +37,7 @@ from typing import Any
 import aiosqlite
 import orjson
 
-from dronefleet.ground.state import closed_unless_opened
+from dronefleet.ground.sqlite_file import closed_unless_opened, refuse_foreign_tables
 from dronefleet.ground.telemetry.store import (
     TelemetryPoint,
     TelemetryQuery,
@@ -142,6 +142,7 @@ class SqliteTelemetryStore:
             await asyncio.to_thread(private_file, Path(self.path))
         db = await held(aiosqlite.connect(self.path, isolation_level=None))
         async with closed_unless_opened(db, f"--store {self.url}"):
+            await refuse_foreign_tables(db, _SCHEMA, f"--store {self.url}")  # before any change
             await held(db.execute("PRAGMA journal_mode=WAL"))
             await held(db.execute("PRAGMA synchronous=NORMAL"))
             await _rows_table_renamed(db)
