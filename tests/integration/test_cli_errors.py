@@ -134,3 +134,15 @@ def test_another_programs_database_as_state_is_one_line_and_left_as_it_was(
     (line,) = said(stderr)
     assert "its table drones is not the ground's" in line
     assert theirs.read_bytes() == before
+
+
+def test_a_drones_reports_file_that_is_not_a_database_is_one_line(tmp_path, mosquitto_broker):
+    (tmp_path / "reports.db").write_bytes(bytes(range(256)) * 20)
+    code, stderr = run(
+        "drone", "--id", "QUAD_1", "--broker", str(mosquitto_broker),
+        "--state-dir", str(tmp_path),
+    )  # fmt: skip
+    assert code == 2 and "Traceback" not in stderr, stderr
+    (line,) = said(stderr)
+    assert "--state-dir" in line and "reports.db cannot be used: file is not a database" in line
+    assert (tmp_path / "reports.db").read_bytes() == bytes(range(256)) * 20

@@ -20,6 +20,7 @@ import sqlite3
 from collections import OrderedDict
 from pathlib import Path
 
+from dronefleet.errors import InvalidInput
 from dronefleet.messaging.codec import MessageError
 from dronefleet.messaging.missions import MissionProgress, ProgressEvent
 from dronefleet.owner_only import private_file
@@ -45,10 +46,16 @@ class ReportStore:
         if path is not None:
             # 0600 before SQLite opens it, so its -wal and -shm files are too (issue 25).
             private_file(path)
-            self.db = sqlite3.connect(path, isolation_level=None)
-            self.db.execute("PRAGMA journal_mode=WAL")
-            self.db.execute("PRAGMA synchronous=NORMAL")
-            self.db.execute(_SCHEMA)
+            db = sqlite3.connect(path, isolation_level=None)
+            try:
+                db.execute("PRAGMA journal_mode=WAL")
+                db.execute("PRAGMA synchronous=NORMAL")
+                db.execute(_SCHEMA)
+                db.execute("SELECT mission_id, seq, body FROM reports LIMIT 0")
+            except sqlite3.DatabaseError as exc:  # garbage, or another program's reports table
+                db.close()
+                raise InvalidInput(f"--state-dir: {path} cannot be used: {exc}") from exc
+            self.db = db
 
     def add(self, progress: MissionProgress) -> None:
         if self.db is None or progress.seq is None:
