@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import shutil
+import socket
 import subprocess
 import tempfile
 import time
@@ -20,7 +21,6 @@ from dronefleet.messaging.nats_broker import find_nats_server
 from dronefleet.messaging.nats_config import NatsCluster, nats_config
 from dronefleet.messaging.ports import free_port
 from dronefleet.messaging.url import BrokerUrl
-from support.brokers import wait_port
 
 
 class ClusterNode:
@@ -50,6 +50,21 @@ class ClusterNode:
         if self.proc is not None and self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
+
+
+def wait_listening(node: ClusterNode, deadline: float) -> None:
+    """Until ``node`` listens for MQTT; a node that exited, or is still not listening at the
+    deadline, is reported with the end of its log (the why of a failed start)."""
+    while True:
+        with contextlib.suppress(OSError):
+            socket.create_connection(("127.0.0.1", node.mqtt_port), timeout=0.5).close()
+            return
+        exited = node.proc is not None and node.proc.poll() is not None
+        if exited or time.monotonic() > deadline:
+            log = (node.folder / "nats-server.log").read_text(errors="replace")[-3000:]
+            state = f"exited {node.proc.returncode}" if exited and node.proc else "not listening"
+            raise RuntimeError(f"NATS node {node.name} {state} on {node.mqtt_port}:\n{log}")
+        time.sleep(0.05)
 
 
 def wait_sessions(node: ClusterNode, deadline: float) -> None:
@@ -111,7 +126,7 @@ def nats_cluster(nodes: int = 3, users: BrokerUsers | None = None) -> Iterator[l
             node.start()
         deadline = time.monotonic() + 60
         for node in members:
-            wait_port("127.0.0.1", node.mqtt_port, max(1.0, deadline - time.monotonic()))
+            wait_listening(node, deadline)
         for node in members:
             wait_sessions(node, deadline)
         yield members

@@ -3,6 +3,9 @@ numbered once and for good, and saying why a picture cannot be fetched."""
 
 from __future__ import annotations
 
+import pytest
+
+from dronefleet.errors import Unavailable
 from dronefleet.ground.photos.collector import NO_FILE, captures
 from dronefleet.ground.photos.store import PhotoStore
 from dronefleet.ground.planner.models import Leg, MissionRecord, StepReport
@@ -66,3 +69,19 @@ async def test_every_picture_of_a_distance_trigger_report_is_listed_once(tmp_pat
         (2, 7, 1, "T_1.jpg"),
         (3, 7, 2, "T_2.jpg"),
     ]
+
+
+async def test_a_damaged_list_is_refused_with_the_reason_and_left_as_it_was(tmp_path):
+    """It was a pydantic error, so a 500 on ``GET .../photos``; and the next report would have
+    written a new list over the damaged one."""
+    leg = Leg(leg_id="M1.1", drone_id="QUAD_1", reports=[shot(1, 40.1, "QUAD_1_0001.jpg")])
+    await PhotoStore(tmp_path).register("M1", captures(record(leg)))
+    manifest = tmp_path / "M1" / "photos.json"
+    damaged = manifest.read_bytes()[:-20]  # cut short, as a full disk would
+    manifest.write_bytes(damaged)
+    store = PhotoStore(tmp_path)
+    with pytest.raises(Unavailable, match=r"picture list of mission M1 .*cannot be read"):
+        await store.entries("M1")
+    with pytest.raises(Unavailable):
+        await store.register("M1", captures(record(leg)))
+    assert manifest.read_bytes() == damaged

@@ -13,9 +13,9 @@ import asyncio
 import re
 from pathlib import Path
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, ValidationError
 
-from dronefleet.errors import InvalidInput, NotFound
+from dronefleet.errors import InvalidInput, NotFound, Unavailable
 from dronefleet.ground.photos import images
 from dronefleet.owner_only import write_private
 
@@ -78,7 +78,14 @@ class PhotoStore:
         if found is None:
             path = self.folder(mission_id) / MANIFEST
             text = await asyncio.to_thread(_read_text, path)
-            found = _Manifest.model_validate_json(text).photos if text else []
+            try:
+                found = _Manifest.model_validate_json(text).photos if text else []
+            except ValidationError as exc:  # the file was damaged or edited: never a 500
+                raise Unavailable(
+                    f"the picture list of mission {mission_id} ({path}) cannot be read "
+                    f"({exc.errors()[0]['msg']}); the pictures are in its folder: mend or "
+                    f"remove {MANIFEST} and the ground lists what the drones report again"
+                ) from exc
             self._lists[mission_id] = found
         return found
 
