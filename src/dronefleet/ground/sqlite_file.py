@@ -8,9 +8,11 @@ ground's. Two things go wrong with such a file unless they are handled here:
 - ``CREATE TABLE IF NOT EXISTS`` keeps a table of the same name that is not ours, and the
   first query on it fails later, far from the cause ("no such column: name").
 
-So the set-up runs inside :func:`closed_unless_opened`, and every script's tables are checked
-against what the script itself makes, with :func:`refuse_foreign_tables`. Both refusals are
-:class:`~dronefleet.errors.InvalidInput` naming the option, which every command prints in one line.
+So both stores open their file with :func:`open_sqlite`, which sets it up inside
+:func:`closed_unless_opened` and first checks the schema's tables against what the script itself
+makes (:func:`refuse_foreign_tables`, also run before each room's script). Both refusals are
+:class:`~dronefleet.errors.InvalidInput` naming the option, which every command prints in one
+line.
 """
 
 from __future__ import annotations
@@ -18,12 +20,33 @@ from __future__ import annotations
 import contextlib
 import functools
 import sqlite3
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Awaitable, Callable
 
 import aiosqlite
 
 from dronefleet.errors import InvalidInput
 from dronefleet.virtual_loop import held
+
+
+async def open_sqlite(
+    path: str,
+    schema: str,
+    what: str,
+    *,
+    upgrade: Callable[[aiosqlite.Connection], Awaitable[None]] | None = None,
+) -> aiosqlite.Connection:
+    """``path`` opened in WAL mode with ``schema`` made: refused as ``what`` (nothing written)
+    if it is not a database or holds a table of ours that is not ours; ``upgrade`` runs before
+    the schema (an earlier version's tables renamed)."""
+    db = await held(aiosqlite.connect(path, isolation_level=None))
+    async with closed_unless_opened(db, what):
+        await refuse_foreign_tables(db, schema, what)  # before the file is changed
+        await held(db.execute("PRAGMA journal_mode=WAL"))
+        await held(db.execute("PRAGMA synchronous=NORMAL"))
+        if upgrade is not None:
+            await upgrade(db)
+        await held(db.executescript(schema))
+    return db
 
 
 @contextlib.asynccontextmanager

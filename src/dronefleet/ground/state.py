@@ -25,7 +25,7 @@ import aiosqlite
 import orjson
 
 from dronefleet.clock import timestamp_s
-from dronefleet.ground.sqlite_file import closed_unless_opened, refuse_foreign_tables
+from dronefleet.ground.sqlite_file import open_sqlite, refuse_foreign_tables
 from dronefleet.owner_only import private_file
 from dronefleet.virtual_loop import held
 
@@ -123,13 +123,7 @@ class StateStore:
     async def open(self) -> StateStore:
         if self.path != ":memory:":
             await asyncio.to_thread(_owner_only, Path(self.path))
-        db = await held(aiosqlite.connect(self.path, isolation_level=None))
-        async with closed_unless_opened(db, self._what):
-            await refuse_foreign_tables(db, SCHEMA, self._what)  # before the file is changed
-            await held(db.execute("PRAGMA journal_mode=WAL"))
-            await held(db.execute("PRAGMA synchronous=NORMAL"))
-            await held(db.executescript(SCHEMA))
-        self._db = db
+        self._db = await open_sqlite(self.path, SCHEMA, self._what)
         return self
 
     async def close(self) -> None:

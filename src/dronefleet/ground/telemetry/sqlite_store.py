@@ -37,7 +37,7 @@ from typing import Any
 import aiosqlite
 import orjson
 
-from dronefleet.ground.sqlite_file import closed_unless_opened, refuse_foreign_tables
+from dronefleet.ground.sqlite_file import open_sqlite
 from dronefleet.ground.telemetry.store import (
     TelemetryPoint,
     TelemetryQuery,
@@ -140,14 +140,9 @@ class SqliteTelemetryStore:
             # The owner's only (issue 25): made 0600 before SQLite opens it, so its -wal and
             # -shm files are too; one left 0644 by an earlier version is closed to others.
             await asyncio.to_thread(private_file, Path(self.path))
-        db = await held(aiosqlite.connect(self.path, isolation_level=None))
-        async with closed_unless_opened(db, f"--store {self.url}"):
-            await refuse_foreign_tables(db, _SCHEMA, f"--store {self.url}")  # before any change
-            await held(db.execute("PRAGMA journal_mode=WAL"))
-            await held(db.execute("PRAGMA synchronous=NORMAL"))
-            await _rows_table_renamed(db)
-            await held(db.executescript(_SCHEMA))
-        self._db = db
+        self._db = await open_sqlite(
+            self.path, _SCHEMA, f"--store {self.url}", upgrade=_rows_table_renamed
+        )
 
     async def close(self) -> None:
         if self._db is not None:
