@@ -15,13 +15,27 @@ def dronefleet(*args: str) -> list[str]:
     return [sys.executable, "-m", "dronefleet.cli", *args]
 
 
+#: Lines of a process's log printed when the test around it fails.
+FAILED_LOG_LINES = 60
+
+
 @contextlib.contextmanager
 def process(cmd: list[str], log: Path) -> Iterator[subprocess.Popen[bytes]]:
-    """``cmd`` with its output in ``log``, stopped (terminate, then kill) on the way out."""
+    """``cmd`` with its output in ``log``, stopped (terminate, then kill) on the way out.
+
+    If the block fails, the end of the log is printed once the process has stopped: pytest shows
+    it with the failure, so a run that fails only on CI still says what the process was doing.
+    """
     with open(log, "ab") as out:
         proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT)
     try:
         yield proc
+    except BaseException:
+        stop(proc)
+        lines = log.read_text(errors="replace").splitlines()[-FAILED_LOG_LINES:]
+        print(f"--- the end of {log} (exit {proc.returncode}):")
+        print("\n".join(lines))
+        raise
     finally:
         stop(proc)
 

@@ -73,7 +73,7 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path, 
         http_ports = [free_port(), free_port()]
         grounds = [
             dronefleet(
-                "ground", "--broker", nodes_from(ports, i), "--state", state,
+                "-v", "ground", "--broker", nodes_from(ports, i), "--state", state,
                 "--store", f"sqlite:///{tmp_path}/telemetry-{i}.db",
                 "--photo-dir", str(tmp_path / f"photos-{i}"),
                 "--http", f"127.0.0.1:{http_ports[i]}", f"--token={token}", *sharing,
@@ -82,7 +82,7 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path, 
         ]  # fmt: skip
         drones = [
             dronefleet(
-                "drone", "--id", drone_id, "--broker", nodes_from(ports, i), "--fc", "sim",
+                "-v", "drone", "--id", drone_id, "--broker", nodes_from(ports, i), "--fc", "sim",
                 "--home", home, "--speedup", str(SPEEDUP),
             )
             for i, (drone_id, home) in enumerate(HOMES.items())
@@ -98,14 +98,17 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path, 
         with (
             process(grounds[0], tmp_path / "ground-0.log") as ground_0,
             process(grounds[1], tmp_path / "ground-1.log") as ground_1,
-            process(drones[0], tmp_path / "d1.log"),
-            process(drones[1], tmp_path / "d2.log"),
-            process(drones[2], tmp_path / "d3.log"),
+            process(drones[0], tmp_path / "d1.log") as drone_1,
+            process(drones[1], tmp_path / "d2.log") as drone_2,
+            process(drones[2], tmp_path / "d3.log") as drone_3,
         ):
+            started = (ground_0, ground_1, drone_1, drone_2, drone_3)
             # Start-up is bounded by imports and the cluster's JetStream election on a loaded
             # host, not by anything measured here.
             deadline = time.monotonic() + 180
             while sorted(status(api, "/api/v1/missions") for api in apis) != [200, 503]:
+                exits = [proc.poll() for proc in started]
+                assert exits == [None] * 5, f"a replica or a drone exited at start-up: {exits}"
                 assert time.monotonic() < deadline, "not one leader and one standby"
                 time.sleep(0.2)
             lead = 0 if status(apis[0], "/api/v1/missions") == 200 else 1
@@ -113,6 +116,8 @@ def test_a_mission_flies_through_the_leaders_death_and_a_broker_nodes(tmp_path, 
             for api in apis:  # both replicas hear every drone, whichever node it is on
                 for drone_id in HOMES:
                     while status(api, f"/api/v1/drones/{drone_id}") != 200:
+                        exits = [proc.poll() for proc in started]
+                        assert exits == [None] * 5, f"exited at start-up: {exits}"
                         assert time.monotonic() < deadline, f"{drone_id} never heard"
                         time.sleep(0.2)
             time.sleep(3.0)  # the Identifier learns each drone's clock rate
