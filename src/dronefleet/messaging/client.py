@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 from collections import deque
 from typing import Any, Unpack
 
@@ -20,10 +21,13 @@ from paho.mqtt.client import topic_matches_sub
 from dronefleet.messaging.acks import AckTicket
 from dronefleet.messaging.connection import BrokerUnavailable, LinkOptions
 from dronefleet.messaging.local_bus import SessionClosed
+from dronefleet.messaging.mqtt_link import subscribed
 from dronefleet.messaging.publishing import QOS_COMMAND, QOS_STREAM, Publishing
 from dronefleet.messaging.subscriptions import QUEUE_LIMIT, Handler, Subscription, offer, work
 from dronefleet.messaging.topic_routes import TopicRoutes, broker_filters, covers
 from dronefleet.messaging.url import BrokerUrl
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "QOS_COMMAND",
@@ -36,6 +40,13 @@ __all__ = [
 
 #: Topic filters sent in one SUBSCRIBE or UNSUBSCRIBE packet at most.
 FILTERS_PER_PACKET = 100
+#: A filter the broker refused is asked for again after this many seconds, at most
+#: :data:`REFUSED_TRIES` times on a link: a NATS node refuses a QoS 1 filter whose JetStream
+#: consumer it could not make in 5 s (its leader lost with a node, not elected again yet). It
+#: was taken as subscribed, and the drone heard nothing on it until its next link. A filter no
+#: right allows is refused each time: it is said in the log, and the link works on without it.
+REFUSED_AGAIN_S = 1.0
+REFUSED_TRIES = 10
 
 
 class BrokerClient(Publishing):
@@ -61,6 +72,8 @@ class BrokerClient(Publishing):
         self._routes = TopicRoutes()
         self._at_broker: dict[str, int] = {}  # filter -> QoS subscribed on this connection
         self._sync_lock = asyncio.Lock()
+        self._refusals = 0  # rounds of filters refused on this link (SUBACK 0x80)
+        self._again: asyncio.Task[None] | None = None  # the next round after a refusal
         #: A persistent session's messages that came before any subscription matched them.
         self._unclaimed: deque[tuple[str, bytes, int, int, Any]] = deque()
         #: The QoS 1 messages of a persistent session still with a handler, by link and packet
@@ -104,6 +117,9 @@ class BrokerClient(Publishing):
                 if self._runner.done():
                     self._runner.result()
             self._runner = None
+        if self._again is not None:
+            self._again.cancel()
+            self._again = None
         for sub in self._subs:
             if sub.worker is not None:
                 sub.worker.cancel()
@@ -120,7 +136,9 @@ class BrokerClient(Publishing):
 
     # -- subscribe ---------------------------------------------------------------------------
     async def subscribe(self, pattern: str, handler: Handler, *, qos: int = QOS_COMMAND) -> None:
-        """Call ``handler(topic, payload)`` for each message matching ``pattern``, in order."""
+        """Call ``handler(topic, payload)`` for each message matching ``pattern``, in order.
+        ``qos`` is held at the broker by a persistent session; a clean one holds QoS 0
+        (:meth:`_held_filters`)."""
         if pattern in self._retired:
             raise ValueError(f"{pattern!r} is a retired filter of this client: it is unsubscribed")
         sub = Subscription(pattern, handler, qos)
@@ -155,6 +173,7 @@ class BrokerClient(Publishing):
     async def _link_up(self, client: Any) -> None:
         """On a new link: nothing is subscribed there yet; subscribe what is wanted."""
         self._at_broker = {}
+        self._refusals = 0
         if self._retired:
             await self._unsubscribe(client, list(self._retired))
         await self._sync_filters(client)
@@ -167,20 +186,56 @@ class BrokerClient(Publishing):
         joining or leaving moves hundreds, which one round trip each made seconds on a loaded
         host."""
         async with self._sync_lock:
-            while (target := broker_filters(self._subs)) != self._at_broker:
+            while (target := self._held_filters()) != self._at_broker:
                 wanted = [(p, q) for p, q in target.items() if self._at_broker.get(p, -1) < q]
+                refused = []
                 for start in range(0, len(wanted), FILTERS_PER_PACKET):
                     chunk = wanted[start : start + FILTERS_PER_PACKET]
-                    if isinstance(client, aiomqtt.Client) and len(chunk) > 1:
-                        await client.subscribe(chunk)
-                    else:
-                        for pattern, qos in chunk:
-                            await client.subscribe(pattern, qos=qos)
-                    self._at_broker.update(chunk)
+                    answers = await subscribed(client, chunk)
+                    for (pattern, qos), taken in zip(chunk, answers, strict=True):
+                        if taken:
+                            self._at_broker[pattern] = qos
+                        else:
+                            refused.append(pattern)
                 gone = [p for p in self._at_broker if p not in target]
                 await self._unsubscribe(client, gone)
                 for pattern in gone:
                     del self._at_broker[pattern]
+                if refused:
+                    self._ask_again(client, refused)
+                    return
+
+    def _held_filters(self) -> dict[str, int]:
+        """The filters to hold at the broker, and at which QoS: a clean session holds them at
+        QoS 0. Its messages end with its link, so QoS 1 delivers nothing more to it than QoS 0
+        over the same TCP link (MQTT 3.1.1 §4.4: messages are sent again only to a session that
+        persists), and on NATS it cost a JetStream consumer per filter, a Raft group on
+        ``stream_replicas`` nodes: each link deleted the last link's and made new ones, and
+        after a node's loss a drone was cut off until every one of them had a leader again, up
+        to 35 s on a loaded host (docs/resilience.md). What a clean session publishes keeps
+        its QoS."""
+        held = broker_filters(self._subs)
+        return held if self.persistent_session else dict.fromkeys(held, 0)
+
+    def _ask_again(self, client: Any, refused: list[str]) -> None:
+        """Sync the filters again in :data:`REFUSED_AGAIN_S`, in the background (a link is not
+        held up by a filter the broker refuses), at most :data:`REFUSED_TRIES` times a link."""
+        self._refusals += 1
+        if self._refusals >= REFUSED_TRIES:
+            log.warning(
+                "%s: the broker refused %s %d times; asked again on the next subscription or link",
+                self.client_id, refused, self._refusals,
+            )  # fmt: skip
+            return
+        if self._again is None or self._again.done():
+            self._again = asyncio.create_task(self._sync_again(client), name="mqtt:subscribe-again")
+
+    async def _sync_again(self, client: Any) -> None:
+        await asyncio.sleep(REFUSED_AGAIN_S)
+        self._again = None  # a refusal now schedules the next round
+        if self._client is client and self.connected:
+            with contextlib.suppress(aiomqtt.MqttError, SessionClosed):
+                await self._sync_filters(client)
 
     @staticmethod
     async def _unsubscribe(client: Any, filters: list[str]) -> None:

@@ -1,17 +1,34 @@
-"""One MQTT link to one broker node, made with aiomqtt: the client set up, the CONNACK awaited.
+"""One MQTT link to one broker node, made with aiomqtt: the client set up, the CONNACK awaited,
+subscriptions made on it.
 
 aiomqtt waits its whole timeout (10 s) for a CONNACK even when the broker has closed the link,
 and the connect of a client that gave up on it leaves the socket open: both are made right here.
+Its SUBSCRIBE waits for the SUBACK until its timeout even when the link is gone, and treats a
+refused filter (SUBACK 0x80) as subscribed: :func:`subscribed` waits while the link holds and
+says which filters the broker took.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import AsyncIterator
-from typing import Any
+from collections.abc import AsyncIterator, Awaitable, Sequence
+from typing import Any, TypeVar
 
 import aiomqtt
+
+T = TypeVar("T")
+
+#: How long a SUBSCRIBE waits for its SUBACK while its link holds. A NATS node that takes a
+#: persistent session over restores the session's QoS 1 subscriptions (one JetStream consumer
+#: each) before it reads the next packet, each given up after 5 s while its consumer has no
+#: leader yet (a node just killed led it). With aiomqtt's 10 s a drone with three such
+#: consumers gave up on every link at 10 s: the next node began the restore again, and its save
+#: of the session closed the link the first was still restoring for (NATS: "Closing because a
+#: remote connection has started with the same client ID"); cut off 26 s on a loaded host.
+SUBACK_WAIT_S = 60.0
+#: A SUBACK's code for a filter the broker refused (MQTT 3.1.1 §3.9.3).
+SUBACK_REFUSED = 0x80
 
 
 def closed_before_connack_fails(connection: aiomqtt.Client) -> None:
@@ -48,3 +65,33 @@ async def linked(
                 connection._client._sock_close()
             raise aiomqtt.MqttError(f"no CONNACK within {connack_s:g} s") from None
         yield connection
+
+
+async def while_linked(connection: aiomqtt.Client, operation: Awaitable[T]) -> T:
+    """``operation``, ended by an MqttError if ``connection``'s link is lost first."""
+    task = asyncio.ensure_future(operation)
+    lost: asyncio.Future[None] = connection._disconnected
+    try:
+        await asyncio.wait((task, lost), return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        if not task.done():
+            task.cancel()
+    if task.done() and not task.cancelled():
+        return task.result()
+    raise aiomqtt.MqttError("the link was lost before the broker answered")
+
+
+async def subscribed(client: Any, filters: Sequence[tuple[str, int]]) -> list[bool]:
+    """SUBSCRIBE ``filters`` (pattern, QoS) in one packet on ``client`` (an aiomqtt client or a
+    local bus session, which takes one filter at a time): whether the broker took each."""
+    if not isinstance(client, aiomqtt.Client):
+        codes: Sequence[Any] = [await client.subscribe(p, qos=q) for p, q in filters]
+    elif len(filters) == 1:
+        pattern, qos = filters[0]
+        codes = await while_linked(client, client.subscribe(pattern, qos, timeout=SUBACK_WAIT_S))
+    else:
+        codes = await while_linked(client, client.subscribe(list(filters), timeout=SUBACK_WAIT_S))
+    if len(codes) != len(filters):
+        raise aiomqtt.MqttError(f"a SUBACK of {len(codes)} codes for {len(filters)} filters")
+    # MQTT 3.1.1 answers a QoS or 0x80 per filter; MQTT 5 a reason code (paho's ReasonCode).
+    return [int(getattr(code, "value", code)) < SUBACK_REFUSED for code in codes]
