@@ -86,10 +86,7 @@ async def subscribed(client: Any, filters: Sequence[tuple[str, int]]) -> list[bo
     local bus session, which takes one filter at a time): whether the broker took each."""
     if not isinstance(client, aiomqtt.Client):
         codes: Sequence[Any] = [await client.subscribe(p, qos=q) for p, q in filters]
-    elif len(filters) == 1:
-        pattern, qos = filters[0]
-        codes = await while_linked(client, client.subscribe(pattern, qos, timeout=SUBACK_WAIT_S))
-    else:
+    else:  # paho takes a list of (filter, QoS) of any length, one filter included
         codes = await while_linked(client, client.subscribe(list(filters), timeout=SUBACK_WAIT_S))
     if len(codes) != len(filters):
         raise aiomqtt.MqttError(f"a SUBACK of {len(codes)} codes for {len(filters)} filters")
